@@ -1,0 +1,18 @@
+//! rubscan: critical-speed scans of a bladed impeller rubbing inside a flexible casing.
+//!
+//! The module tree follows the pipeline of Batailly & Legrand (2015):
+//! - [`model`]: finite elements, built-in geometry, cyclic symmetry, Craig–Bampton reduction, ROMs;
+//! - [`contact`]: the casing B-spline contact surface and closest-point projection;
+//! - [`dynamics`]: explicit time integration with Lagrange-multiplier contact, friction, abradable coating;
+//! - [`analysis`]: spectra, linear interaction criterion, strain energy per nodal diameter;
+//! - [`sweep`]: sweep specification, planner, runner;
+//! - [`io`]: ROM files, Parquet tables, plots (the only modules that touch the file system).
+//!
+//! Units are SI everywhere inside (m, kg, s, N, Pa, rad/s).
+
+pub mod analysis;
+pub mod contact;
+pub mod dynamics;
+pub mod io;
+pub mod model;
+pub mod sweep;

@@ -1,0 +1,4 @@
+//! Model building: finite elements, built-in parametric geometry, cyclic symmetry,
+//! Craig–Bampton reduction and the reduced-order model (ROM) type.
+
+pub mod rom;

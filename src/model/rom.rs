@@ -1,0 +1,447 @@
+//! The cyclic Craig–Bampton reduced-order model (ROM) shared by every stage.
+//!
+//! # Conventions
+//! - Axis of rotation: global `z`. Sector `s` (0-based) spans angles
+//!   `[θ_s, θ_s + α]` with `α = 2π/N`, `θ_s = s α`, counter-clockwise about `+z`.
+//! - Each sector carries the same `n_c` contact nodes. DOFs of sector `s` are
+//!   expressed in its *sector-local frame*: the global Cartesian frame rotated by
+//!   `θ_s` about `z`. Sector 0's local frame is the global frame.
+//! - Nodal diameter `k` (0..=N/2): a physical field `u_s` is described by a
+//!   complex amplitude `ũ` with `u_s = Re(ũ e^{i k θ_s})`; the right interface
+//!   of sector 0 equals `e^{i k α}` times its left interface (both in local frames).
+//!   With `ũ = a − i b` this is `u_s = a cos kθ_s + b sin kθ_s`.
+//! - The reduced matrices of nodal diameter `k` are Hermitian `C = C_re + i C_im`
+//!   over `[boundary DOFs (3 n_c, node-major, x y z); fixed-interface modal
+//!   coordinates (n_m)]`. In the real basis `(a, b)` they act as
+//!   `[[C_re, C_im], [−C_im, C_re]]` (symmetric since `C_im` is antisymmetric).
+//!   For `k = 0` and `k = N/2` the imaginary part vanishes and only `a` exists.
+//! - `K(Ω) = K0 + Ω² K1 + Ω⁴ K2` (impeller, rotating frame); a casing has `K1 = K2 = 0`.
+//!
+//! Units: SI (m, kg, s, N, rad/s); frequencies in the modal data are in Hz.
+
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Version of the ROM data layout; bumped on any incompatible change.
+pub const ROM_FORMAT_VERSION: u32 = 1;
+
+/// Which structure a ROM describes: it decides the frame (rotating or fixed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Component {
+    /// Bladed wheel, modelled in the frame rotating at Ω.
+    Impeller,
+    /// Casing, modelled in the fixed frame.
+    Casing,
+}
+
+/// Damping model of a ROM.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Damping {
+    /// The same modal damping ratio ζ (dimensionless) on every free-vibration mode of the ROM.
+    Modal { ratio: f64 },
+    /// Rayleigh damping `D = α M + β K0`, α in 1/s and β in s.
+    Rayleigh { alpha: f64, beta: f64 },
+}
+
+impl Default for Damping {
+    fn default() -> Self {
+        Damping::Modal { ratio: 0.005 }
+    }
+}
+
+/// A Hermitian matrix stored as its real (symmetric) and imaginary (antisymmetric) parts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HermitianMatrix {
+    pub re: DMatrix<f64>,
+    pub im: DMatrix<f64>,
+}
+
+impl HermitianMatrix {
+    /// A real symmetric matrix (imaginary part zero).
+    pub fn real(re: DMatrix<f64>) -> Self {
+        let n = re.nrows();
+        Self {
+            re,
+            im: DMatrix::zeros(n, n),
+        }
+    }
+
+    /// Order of the matrix.
+    pub fn size(&self) -> usize {
+        self.re.nrows()
+    }
+
+    /// Real representation `[[re, im], [−im, re]]` acting on `(a, b)`, or `re` alone when `real_only`.
+    pub fn real_form(&self, real_only: bool) -> DMatrix<f64> {
+        if real_only {
+            return self.re.clone();
+        }
+        let n = self.size();
+        let mut out = DMatrix::zeros(2 * n, 2 * n);
+        out.view_mut((0, 0), (n, n)).copy_from(&self.re);
+        out.view_mut((n, n), (n, n)).copy_from(&self.re);
+        out.view_mut((0, n), (n, n)).copy_from(&self.im);
+        out.view_mut((n, 0), (n, n)).copy_from(&(-&self.im));
+        out
+    }
+}
+
+/// Reduced matrices of one nodal diameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HarmonicBlock {
+    /// Nodal diameter k.
+    pub nodal_diameter: usize,
+    /// Number of fixed-interface modes `n_m` kept for this nodal diameter.
+    pub n_modes: usize,
+    /// Reduced mass (kg), order `3 n_c + n_m`.
+    pub mass: HermitianMatrix,
+    /// Reduced stiffness coefficients `[K0 (N/m), K1 (N/m per (rad/s)²), K2 (N/m per (rad/s)⁴)]`.
+    pub stiffness: [HermitianMatrix; 3],
+}
+
+impl HarmonicBlock {
+    /// Stiffness `K(Ω) = K0 + Ω² K1 + Ω⁴ K2` at rotation speed `omega` (rad/s).
+    pub fn stiffness_at(&self, omega: f64) -> HermitianMatrix {
+        let (w2, w4) = (omega * omega, omega.powi(4));
+        let [k0, k1, k2] = &self.stiffness;
+        HermitianMatrix {
+            re: &k0.re + &k1.re * w2 + &k2.re * w4,
+            im: &k0.im + &k1.im * w2 + &k2.im * w4,
+        }
+    }
+}
+
+/// A contact node of the reference sector.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactNode {
+    /// Reference position in the global frame (m).
+    pub position: [f64; 3],
+    /// Index of the node along the meridian / blade tip, 0 = leading edge.
+    pub row: usize,
+}
+
+/// Free-vibration data of one nodal diameter, for the Campbell diagram and the interaction criterion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModalData {
+    /// Nodal diameter k.
+    pub nodal_diameter: usize,
+    /// Rotation speeds of the grid (rad/s); a single 0 for a casing.
+    pub omega: Vec<f64>,
+    /// Natural frequencies (Hz), `frequencies[i][p]` at `omega[i]`, ascending in `p`.
+    pub frequencies: Vec<Vec<f64>>,
+    /// Mode shapes at the contact nodes of sector 0 (complex amplitude `ũ`, real and
+    /// imaginary parts, 3 n_c entries each), mass-normalized, at `omega[i]`: `shapes[i][p]`.
+    pub shapes_re: Vec<Vec<Vec<f64>>>,
+    pub shapes_im: Vec<Vec<Vec<f64>>>,
+}
+
+/// A cyclic Craig–Bampton ROM (DESIGN §2.1–2.2); a single non-cyclic component has `n_sectors = 1`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CyclicRom {
+    /// Human-readable name of the model.
+    pub name: String,
+    /// Impeller or casing.
+    pub component: Component,
+    /// Number of sectors N.
+    pub n_sectors: usize,
+    /// Contact nodes of sector 0 (the others follow by rotation).
+    pub contact_nodes: Vec<ContactNode>,
+    /// Reduced matrices for k = 0..=N/2, in order.
+    pub harmonics: Vec<HarmonicBlock>,
+    /// Free-vibration data per nodal diameter.
+    pub modal_data: Vec<ModalData>,
+    /// Damping model.
+    pub damping: Damping,
+    /// How the model was made (build spec or import description), free-form JSON.
+    pub provenance: serde_json::Value,
+}
+
+/// A ROM that fails validation; every variant names what is wrong.
+#[derive(Debug, Error, PartialEq)]
+pub enum RomError {
+    #[error("the ROM has no sectors (n_sectors = 0)")]
+    NoSectors,
+    #[error("the ROM has no contact nodes")]
+    NoContactNodes,
+    #[error("expected {expected} harmonic blocks (k = 0..={kmax}), found {found}")]
+    HarmonicCount {
+        expected: usize,
+        kmax: usize,
+        found: usize,
+    },
+    #[error("harmonic block {index} has nodal diameter {found}, expected {index}")]
+    HarmonicOrder { index: usize, found: usize },
+    #[error("{what} of nodal diameter {k} is {rows}×{cols}, expected {n}×{n}")]
+    Shape {
+        what: &'static str,
+        k: usize,
+        rows: usize,
+        cols: usize,
+        n: usize,
+    },
+    #[error("{what} of nodal diameter {k} has a non-finite entry at ({row}, {col})")]
+    NotFinite {
+        what: &'static str,
+        k: usize,
+        row: usize,
+        col: usize,
+    },
+    #[error("{what} of nodal diameter {k} is not Hermitian (relative asymmetry {asym:.3e})")]
+    NotHermitian {
+        what: &'static str,
+        k: usize,
+        asym: f64,
+    },
+    #[error("{what} of nodal diameter {k} must be real for k = 0 and k = N/2")]
+    NotReal { what: &'static str, k: usize },
+    #[error("mass of nodal diameter {k} is not positive definite")]
+    MassNotPositiveDefinite { k: usize },
+    #[error("damping: {0}")]
+    Damping(String),
+    #[error("contact node {index} has a non-finite coordinate")]
+    ContactNodeNotFinite { index: usize },
+}
+
+/// Relative tolerance on the symmetry of stored matrices.
+const HERMITIAN_TOL: f64 = 1e-9;
+
+impl CyclicRom {
+    /// Number of contact nodes per sector.
+    pub fn n_contact(&self) -> usize {
+        self.contact_nodes.len()
+    }
+
+    /// Number of boundary DOFs per sector (3 per contact node).
+    pub fn n_boundary(&self) -> usize {
+        3 * self.contact_nodes.len()
+    }
+
+    /// Largest nodal diameter N/2 (integer division).
+    pub fn max_nodal_diameter(&self) -> usize {
+        self.n_sectors / 2
+    }
+
+    /// Whether nodal diameter `k` is described by a real amplitude only (k = 0, or k = N/2 with N even).
+    pub fn is_real_harmonic(&self, k: usize) -> bool {
+        k == 0 || 2 * k == self.n_sectors
+    }
+
+    /// Total number of DOFs of the assembled physical ROM: every boundary DOF of every
+    /// sector plus every modal coordinate (a complex mode counts twice).
+    pub fn n_dofs(&self) -> usize {
+        self.n_sectors * self.n_boundary()
+            + self
+                .harmonics
+                .iter()
+                .map(|h| {
+                    h.n_modes
+                        * if self.is_real_harmonic(h.nodal_diameter) {
+                            1
+                        } else {
+                            2
+                        }
+                })
+                .sum::<usize>()
+    }
+
+    /// Checks shapes, finiteness, Hermitian symmetry and positive definiteness of the mass.
+    pub fn validate(&self) -> Result<(), RomError> {
+        if self.n_sectors == 0 {
+            return Err(RomError::NoSectors);
+        }
+        if self.contact_nodes.is_empty() {
+            return Err(RomError::NoContactNodes);
+        }
+        for (index, node) in self.contact_nodes.iter().enumerate() {
+            if node.position.iter().any(|x| !x.is_finite()) {
+                return Err(RomError::ContactNodeNotFinite { index });
+            }
+        }
+        let kmax = self.max_nodal_diameter();
+        if self.harmonics.len() != kmax + 1 {
+            return Err(RomError::HarmonicCount {
+                expected: kmax + 1,
+                kmax,
+                found: self.harmonics.len(),
+            });
+        }
+        for (index, h) in self.harmonics.iter().enumerate() {
+            if h.nodal_diameter != index {
+                return Err(RomError::HarmonicOrder {
+                    index,
+                    found: h.nodal_diameter,
+                });
+            }
+            let n = self.n_boundary() + h.n_modes;
+            let real = self.is_real_harmonic(index);
+            let named = [
+                ("mass", &h.mass),
+                ("K0", &h.stiffness[0]),
+                ("K1", &h.stiffness[1]),
+                ("K2", &h.stiffness[2]),
+            ];
+            for (what, m) in named {
+                check_hermitian(what, index, m, n, real)?;
+            }
+            if h.mass.real_form(real).cholesky().is_none() {
+                return Err(RomError::MassNotPositiveDefinite { k: index });
+            }
+        }
+        match self.damping {
+            Damping::Modal { ratio } if !(ratio.is_finite() && (0.0..1.0).contains(&ratio)) => Err(
+                RomError::Damping(format!("modal ratio {ratio} must be in [0, 1)")),
+            ),
+            Damping::Rayleigh { alpha, beta }
+                if !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0) =>
+            {
+                Err(RomError::Damping(format!(
+                    "Rayleigh coefficients ({alpha}, {beta}) must be finite and non-negative"
+                )))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+fn check_hermitian(
+    what: &'static str,
+    k: usize,
+    m: &HermitianMatrix,
+    n: usize,
+    real: bool,
+) -> Result<(), RomError> {
+    for part in [&m.re, &m.im] {
+        if part.nrows() != n || part.ncols() != n {
+            return Err(RomError::Shape {
+                what,
+                k,
+                rows: part.nrows(),
+                cols: part.ncols(),
+                n,
+            });
+        }
+        if let Some(pos) = part.iter().position(|x| !x.is_finite()) {
+            return Err(RomError::NotFinite {
+                what,
+                k,
+                row: pos % n,
+                col: pos / n,
+            });
+        }
+    }
+    let scale = m.re.amax().max(m.im.amax());
+    if scale == 0.0 {
+        return Ok(());
+    }
+    if real && m.im.amax() > HERMITIAN_TOL * scale {
+        return Err(RomError::NotReal { what, k });
+    }
+    let asym = (&m.re - m.re.transpose())
+        .amax()
+        .max((&m.im + m.im.transpose()).amax())
+        / scale;
+    if asym > HERMITIAN_TOL {
+        return Err(RomError::NotHermitian { what, k, asym });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2-sector ROM with one contact node and one mode per harmonic: the smallest valid model.
+    pub(crate) fn tiny_rom() -> CyclicRom {
+        let n = 4;
+        let harmonics = (0..=1)
+            .map(|k| HarmonicBlock {
+                nodal_diameter: k,
+                n_modes: 1,
+                mass: HermitianMatrix::real(DMatrix::identity(n, n)),
+                stiffness: [
+                    HermitianMatrix::real(DMatrix::identity(n, n) * 1e6),
+                    HermitianMatrix::real(DMatrix::zeros(n, n)),
+                    HermitianMatrix::real(DMatrix::zeros(n, n)),
+                ],
+            })
+            .collect();
+        CyclicRom {
+            name: "tiny".into(),
+            component: Component::Casing,
+            n_sectors: 2,
+            contact_nodes: vec![ContactNode {
+                position: [0.1, 0.0, 0.0],
+                row: 0,
+            }],
+            harmonics,
+            modal_data: vec![],
+            damping: Damping::default(),
+            provenance: serde_json::Value::Null,
+        }
+    }
+
+    #[test]
+    fn tiny_rom_is_valid_and_counts_dofs() {
+        let rom = tiny_rom();
+        assert_eq!(rom.validate(), Ok(()));
+        assert_eq!(rom.n_dofs(), 2 * 3 + 2);
+    }
+
+    #[test]
+    fn rejects_non_symmetric_mass() {
+        let mut rom = tiny_rom();
+        rom.harmonics[1].mass.re[(0, 1)] = 0.5;
+        assert!(matches!(
+            rom.validate(),
+            Err(RomError::NotHermitian {
+                what: "mass",
+                k: 1,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn rejects_indefinite_mass_nan_and_wrong_shape() {
+        let mut rom = tiny_rom();
+        rom.harmonics[0].mass.re[(2, 2)] = -1.0;
+        assert_eq!(
+            rom.validate(),
+            Err(RomError::MassNotPositiveDefinite { k: 0 })
+        );
+        let mut rom = tiny_rom();
+        rom.harmonics[0].stiffness[0].re[(1, 3)] = f64::NAN;
+        assert!(matches!(
+            rom.validate(),
+            Err(RomError::NotFinite {
+                what: "K0",
+                k: 0,
+                row: 1,
+                col: 3
+            })
+        ));
+        let mut rom = tiny_rom();
+        rom.harmonics[1].stiffness[1] = HermitianMatrix::real(DMatrix::zeros(3, 3));
+        assert!(matches!(
+            rom.validate(),
+            Err(RomError::Shape {
+                what: "K1",
+                k: 1,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn real_form_is_symmetric_for_hermitian_input() {
+        let re = DMatrix::from_row_slice(2, 2, &[2.0, 0.5, 0.5, 3.0]);
+        let im = DMatrix::from_row_slice(2, 2, &[0.0, 0.7, -0.7, 0.0]);
+        let r = HermitianMatrix { re, im }.real_form(false);
+        assert_eq!(r, r.transpose());
+    }
+}
