@@ -1,1 +1,3 @@
-//! io stage.
+//! Input and output: the only stage that touches the file system.
+
+pub mod rom_file;

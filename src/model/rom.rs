@@ -201,6 +201,8 @@ pub enum RomError {
     NotReal { what: &'static str, k: usize },
     #[error("mass of nodal diameter {k} is not positive definite")]
     MassNotPositiveDefinite { k: usize },
+    #[error("modal data entry {index}: {reason}")]
+    ModalData { index: usize, reason: String },
     #[error("damping: {0}")]
     Damping(String),
     #[error("contact node {index} has a non-finite coordinate")]
@@ -290,6 +292,26 @@ impl CyclicRom {
             }
             if h.mass.real_form(real).cholesky().is_none() {
                 return Err(RomError::MassNotPositiveDefinite { k: index });
+            }
+        }
+        for (index, md) in self.modal_data.iter().enumerate() {
+            let bad = |reason: String| Err(RomError::ModalData { index, reason });
+            if md.nodal_diameter != index {
+                return bad(format!("nodal diameter {} out of order", md.nodal_diameter));
+            }
+            if md.frequencies.len() != md.omega.len()
+                || md.shapes_re.len() != md.omega.len()
+                || md.shapes_im.len() != md.omega.len()
+            {
+                return bad("frequencies and shapes must have one entry per rotation speed".into());
+            }
+            if md
+                .omega
+                .iter()
+                .chain(md.frequencies.iter().flatten())
+                .any(|x| !x.is_finite())
+            {
+                return bad("non-finite rotation speed or frequency".into());
             }
         }
         match self.damping {

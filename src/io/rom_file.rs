@@ -1,0 +1,465 @@
+//! ROM files: a safetensors container of little-endian `f64` tensors plus JSON
+//! metadata, readable from Python without rubscan
+//! (`safetensors.numpy.load_file(path)` and `safe_open(path, "np").metadata()`).
+//! The layout is specified in `schemas/rom-format.md`.
+//!
+//! Writing is atomic (temporary file + rename); loading checks every tensor's
+//! presence and shape, then [`CyclicRom::validate`] (finiteness, Hermitian
+//! symmetry, positive-definite mass).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::DMatrix;
+use safetensors::tensor::{Dtype, SafeTensors, TensorView};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::model::rom::{
+    Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData,
+    ROM_FORMAT_VERSION, RomError,
+};
+
+/// Value of the `format` metadata key.
+pub const FORMAT_NAME: &str = "rubscan-rom";
+
+/// Everything that can go wrong reading or writing a ROM file; each variant names the file.
+#[derive(Debug, Error)]
+pub enum RomFileError {
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: cannot write: {source}")]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a valid safetensors container (truncated or corrupted?): {source}")]
+    Container {
+        path: PathBuf,
+        source: safetensors::SafeTensorError,
+    },
+    #[error("{path}: {reason}")]
+    Layout { path: PathBuf, reason: String },
+    #[error("{path}: invalid model: {source}")]
+    Invalid { path: PathBuf, source: RomError },
+}
+
+/// JSON metadata stored under the `rom` key of the safetensors header.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RomMeta {
+    name: String,
+    component: Component,
+    n_sectors: usize,
+    units: String,
+    damping: Damping,
+    contact_rows: Vec<usize>,
+    modes_per_diameter: Vec<usize>,
+    modal_omega_count: Vec<usize>,
+    provenance: serde_json::Value,
+}
+
+const MATRIX_NAMES: [&str; 4] = ["mass", "k0", "k1", "k2"];
+
+/// Writes `rom` to `path` atomically (temporary file in the same directory, then rename).
+pub fn save(rom: &CyclicRom, path: &Path) -> Result<(), RomFileError> {
+    let bytes = to_bytes(rom).map_err(|e| RomFileError::Layout {
+        path: path.into(),
+        reason: e.to_string(),
+    })?;
+    write_atomic(path, &bytes)
+}
+
+/// Writes `bytes` to `path` through a temporary sibling file and a rename, so a reader never sees a partial file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RomFileError> {
+    let wrap = |source| RomFileError::Write {
+        path: path.into(),
+        source,
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(wrap)?;
+    }
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(format!(".tmp{}", std::process::id()));
+    let tmp = PathBuf::from(tmp);
+    std::fs::write(&tmp, bytes).map_err(wrap)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        wrap(e)
+    })
+}
+
+/// Reads and validates a ROM file.
+pub fn load(path: &Path) -> Result<CyclicRom, RomFileError> {
+    let bytes = std::fs::read(path).map_err(|source| RomFileError::Read {
+        path: path.into(),
+        source,
+    })?;
+    from_bytes(&bytes, path)
+}
+
+/// Serialises a ROM to the safetensors byte layout.
+pub fn to_bytes(rom: &CyclicRom) -> Result<Vec<u8>, safetensors::SafeTensorError> {
+    let mut tensors: Vec<(String, Vec<usize>, Vec<u8>)> = Vec::new();
+    let mut push = |name: String, shape: Vec<usize>, values: &mut dyn Iterator<Item = f64>| {
+        let bytes: Vec<u8> = values.flat_map(f64::to_le_bytes).collect();
+        tensors.push((name, shape, bytes));
+    };
+    let nodes = &rom.contact_nodes;
+    push(
+        "contact_nodes.position".into(),
+        vec![nodes.len(), 3],
+        &mut nodes.iter().flat_map(|n| n.position),
+    );
+    for h in &rom.harmonics {
+        let mats = [&h.mass, &h.stiffness[0], &h.stiffness[1], &h.stiffness[2]];
+        for (name, m) in MATRIX_NAMES.iter().zip(mats) {
+            for (part, d) in [("re", &m.re), ("im", &m.im)] {
+                push(
+                    format!("harmonic.{}.{name}.{part}", h.nodal_diameter),
+                    vec![d.nrows(), d.ncols()],
+                    &mut row_major(d),
+                );
+            }
+        }
+    }
+    for (k, md) in rom.modal_data.iter().enumerate() {
+        let n_omega = md.omega.len();
+        let n_p = md.frequencies.first().map_or(0, Vec::len);
+        let n_s = md
+            .shapes_re
+            .first()
+            .and_then(|s| s.first())
+            .map_or(0, Vec::len);
+        push(
+            format!("modal.{k}.omega"),
+            vec![n_omega],
+            &mut md.omega.iter().copied(),
+        );
+        push(
+            format!("modal.{k}.frequencies"),
+            vec![n_omega, n_p],
+            &mut md.frequencies.iter().flatten().copied(),
+        );
+        for (part, s) in [("re", &md.shapes_re), ("im", &md.shapes_im)] {
+            push(
+                format!("modal.{k}.shapes.{part}"),
+                vec![n_omega, n_p, n_s],
+                &mut s.iter().flatten().flatten().copied(),
+            );
+        }
+    }
+    let meta = RomMeta {
+        name: rom.name.clone(),
+        component: rom.component,
+        n_sectors: rom.n_sectors,
+        units: "SI (m, kg, s, N); frequencies in Hz; rotation speeds in rad/s".into(),
+        damping: rom.damping,
+        contact_rows: nodes.iter().map(|n| n.row).collect(),
+        modes_per_diameter: rom.harmonics.iter().map(|h| h.n_modes).collect(),
+        modal_omega_count: rom.modal_data.iter().map(|m| m.omega.len()).collect(),
+        provenance: rom.provenance.clone(),
+    };
+    let info = HashMap::from([
+        ("format".to_string(), FORMAT_NAME.to_string()),
+        ("format_version".to_string(), ROM_FORMAT_VERSION.to_string()),
+        (
+            "rom".to_string(),
+            serde_json::to_string(&meta).expect("metadata serialises"),
+        ),
+    ]);
+    let views = tensors
+        .iter()
+        .map(|(name, shape, bytes)| {
+            Ok((
+                name.clone(),
+                TensorView::new(Dtype::F64, shape.clone(), bytes)?,
+            ))
+        })
+        .collect::<Result<Vec<_>, safetensors::SafeTensorError>>()?;
+    safetensors::serialize(views, Some(info))
+}
+
+fn row_major(m: &DMatrix<f64>) -> impl Iterator<Item = f64> + '_ {
+    (0..m.nrows()).flat_map(move |i| (0..m.ncols()).map(move |j| m[(i, j)]))
+}
+
+/// Parses and validates the safetensors bytes of a ROM; `path` only labels errors.
+pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> {
+    let layout = |reason: String| RomFileError::Layout {
+        path: path.into(),
+        reason,
+    };
+    let st = SafeTensors::deserialize(bytes).map_err(|source| RomFileError::Container {
+        path: path.into(),
+        source,
+    })?;
+    let (_, header) =
+        SafeTensors::read_metadata(bytes).map_err(|source| RomFileError::Container {
+            path: path.into(),
+            source,
+        })?;
+    let info = header.metadata().clone().unwrap_or_default();
+    if info.get("format").map(String::as_str) != Some(FORMAT_NAME) {
+        return Err(layout(format!(
+            "metadata key `format` must be `{FORMAT_NAME}` (not a rubscan ROM file?)"
+        )));
+    }
+    let version = info.get("format_version").cloned().unwrap_or_default();
+    if version != ROM_FORMAT_VERSION.to_string() {
+        return Err(layout(format!(
+            "format_version `{version}` is not supported (this rubscan reads {ROM_FORMAT_VERSION})"
+        )));
+    }
+    let meta_json = info
+        .get("rom")
+        .ok_or_else(|| layout("metadata key `rom` is missing".into()))?;
+    let meta: RomMeta =
+        serde_json::from_str(meta_json).map_err(|e| layout(format!("metadata `rom`: {e}")))?;
+
+    let tensor = |name: &str, shape: &[usize]| -> Result<Vec<f64>, RomFileError> {
+        let t = st
+            .tensor(name)
+            .map_err(|_| layout(format!("tensor `{name}` is missing")))?;
+        if t.dtype() != Dtype::F64 {
+            return Err(layout(format!(
+                "tensor `{name}` has dtype {:?}, expected F64",
+                t.dtype()
+            )));
+        }
+        if t.shape() != shape {
+            return Err(layout(format!(
+                "tensor `{name}` has shape {:?}, expected {shape:?}",
+                t.shape()
+            )));
+        }
+        Ok(t.data()
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            .collect())
+    };
+
+    let n_c = meta.contact_rows.len();
+    let positions = tensor("contact_nodes.position", &[n_c, 3])?;
+    let contact_nodes = meta
+        .contact_rows
+        .iter()
+        .zip(positions.chunks_exact(3))
+        .map(|(&row, p)| ContactNode {
+            position: [p[0], p[1], p[2]],
+            row,
+        })
+        .collect();
+    let kmax = meta.n_sectors / 2;
+    if meta.modes_per_diameter.len() != kmax + 1 {
+        return Err(layout(format!(
+            "metadata lists {} modes_per_diameter entries, expected {} for {} sectors",
+            meta.modes_per_diameter.len(),
+            kmax + 1,
+            meta.n_sectors
+        )));
+    }
+    let mut harmonics = Vec::with_capacity(kmax + 1);
+    for (k, &n_modes) in meta.modes_per_diameter.iter().enumerate() {
+        let n = 3 * n_c + n_modes;
+        let read = |name: &str| -> Result<HermitianMatrix, RomFileError> {
+            let part = |p: &str| {
+                tensor(&format!("harmonic.{k}.{name}.{p}"), &[n, n])
+                    .map(|v| DMatrix::from_row_slice(n, n, &v))
+            };
+            Ok(HermitianMatrix {
+                re: part("re")?,
+                im: part("im")?,
+            })
+        };
+        harmonics.push(HarmonicBlock {
+            nodal_diameter: k,
+            n_modes,
+            mass: read("mass")?,
+            stiffness: [read("k0")?, read("k1")?, read("k2")?],
+        });
+    }
+    let mut modal_data = Vec::with_capacity(meta.modal_omega_count.len());
+    for (k, &n_omega) in meta.modal_omega_count.iter().enumerate() {
+        let omega = tensor(&format!("modal.{k}.omega"), &[n_omega])?;
+        let name = format!("modal.{k}.frequencies");
+        let n_p = st
+            .tensor(&name)
+            .map(|t| t.shape().get(1).copied().unwrap_or(0))
+            .unwrap_or(0);
+        let freqs = tensor(&name, &[n_omega, n_p])?;
+        let n_s = 3 * n_c;
+        let shapes = |p: &str| -> Result<Vec<Vec<Vec<f64>>>, RomFileError> {
+            let flat = tensor(&format!("modal.{k}.shapes.{p}"), &[n_omega, n_p, n_s])?;
+            Ok(flat
+                .chunks(n_p * n_s)
+                .map(|w| w.chunks(n_s).map(<[f64]>::to_vec).collect())
+                .collect())
+        };
+        modal_data.push(ModalData {
+            nodal_diameter: k,
+            omega,
+            frequencies: freqs
+                .chunks(n_p.max(1))
+                .map(<[f64]>::to_vec)
+                .take(n_omega)
+                .collect(),
+            shapes_re: shapes("re")?,
+            shapes_im: shapes("im")?,
+        });
+    }
+    let rom = CyclicRom {
+        name: meta.name,
+        component: meta.component,
+        n_sectors: meta.n_sectors,
+        contact_nodes,
+        harmonics,
+        modal_data,
+        damping: meta.damping,
+        provenance: meta.provenance,
+    };
+    rom.validate().map_err(|source| RomFileError::Invalid {
+        path: path.into(),
+        source,
+    })?;
+    Ok(rom)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 4-sector ROM with a complex harmonic (k = 1) and modal data.
+    fn sample_rom() -> CyclicRom {
+        let n_c = 2;
+        let harmonics = (0..=2)
+            .map(|k| {
+                let n = 3 * n_c + 1;
+                let mut re = DMatrix::identity(n, n) * (2.0 + k as f64);
+                re[(0, 1)] = 0.3;
+                re[(1, 0)] = 0.3;
+                let mut im = DMatrix::zeros(n, n);
+                if k == 1 {
+                    im[(0, 2)] = 0.1;
+                    im[(2, 0)] = -0.1;
+                }
+                let h = HermitianMatrix { re, im };
+                HarmonicBlock {
+                    nodal_diameter: k,
+                    n_modes: 1,
+                    mass: h.clone(),
+                    stiffness: [
+                        h.clone(),
+                        HermitianMatrix::real(DMatrix::identity(n, n) * 0.5),
+                        HermitianMatrix::real(DMatrix::zeros(n, n)),
+                    ],
+                }
+            })
+            .collect();
+        CyclicRom {
+            name: "sample".into(),
+            component: Component::Impeller,
+            n_sectors: 4,
+            contact_nodes: vec![
+                ContactNode {
+                    position: [0.1, 0.0, 0.0],
+                    row: 0,
+                },
+                ContactNode {
+                    position: [0.11, 0.0, 0.02],
+                    row: 1,
+                },
+            ],
+            harmonics,
+            modal_data: vec![ModalData {
+                nodal_diameter: 0,
+                omega: vec![0.0, 100.0],
+                frequencies: vec![vec![10.0, 20.0], vec![11.0, 21.0]],
+                shapes_re: vec![
+                    vec![vec![1.0; 6], vec![2.0; 6]],
+                    vec![vec![3.0; 6], vec![4.0; 6]],
+                ],
+                shapes_im: vec![vec![vec![0.0; 6]; 2]; 2],
+            }],
+            damping: Damping::Rayleigh {
+                alpha: 1.0,
+                beta: 1e-6,
+            },
+            provenance: serde_json::json!({"test": true}),
+        }
+    }
+
+    #[test]
+    fn round_trip_preserves_everything() {
+        let rom = sample_rom();
+        let bytes = to_bytes(&rom).unwrap();
+        let back = from_bytes(&bytes, Path::new("mem.rom")).unwrap();
+        assert_eq!(back, rom);
+    }
+
+    #[test]
+    fn truncated_file_is_rejected_with_its_name() {
+        let bytes = to_bytes(&sample_rom()).unwrap();
+        for cut in [4, bytes.len() / 2, bytes.len() - 1] {
+            let err = from_bytes(&bytes[..cut], Path::new("cut.rom"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.starts_with("cut.rom:"), "{err}");
+        }
+    }
+
+    #[test]
+    fn corrupted_contents_are_rejected_with_clear_errors() {
+        let mut rom = sample_rom();
+        rom.harmonics[1].mass.re[(0, 1)] = f64::NAN;
+        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("nan.rom"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("non-finite") && err.contains("mass"), "{err}");
+
+        let mut rom = sample_rom();
+        rom.harmonics[2].mass.re[(0, 3)] = 1.0;
+        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("asym.rom"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("not Hermitian"), "{err}");
+
+        let mut rom = sample_rom();
+        rom.harmonics[0].stiffness[0] = HermitianMatrix::real(DMatrix::identity(3, 3));
+        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("shape.rom"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("harmonic.0.k0.re") && err.contains("shape"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn foreign_safetensors_file_is_rejected() {
+        let data = [0u8; 8];
+        let view = TensorView::new(Dtype::F64, vec![1], &data).unwrap();
+        let bytes = safetensors::serialize([("x", view)], None).unwrap();
+        let err = from_bytes(&bytes, Path::new("other.safetensors"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("format"), "{err}");
+    }
+
+    #[test]
+    fn atomic_save_then_load() {
+        let dir = std::env::temp_dir().join(format!("rubscan-romfile-{}", std::process::id()));
+        let path = dir.join("m.rom");
+        save(&sample_rom(), &path).unwrap();
+        assert_eq!(load(&path).unwrap(), sample_rom());
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "no temporary file left behind"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
