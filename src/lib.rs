@@ -11,6 +11,7 @@
 //! Units are SI everywhere inside (m, kg, s, N, Pa, rad/s).
 
 pub mod analysis;
+pub mod app;
 pub mod contact;
 pub mod dynamics;
 pub mod io;
