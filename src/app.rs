@@ -34,8 +34,18 @@ pub fn describe_rom(rom: &CyclicRom) -> String {
             if i != 0 && i + 1 != md.omega.len() {
                 continue;
             }
-            let freqs: Vec<String> = md.frequencies[i].iter().take(6).map(|f| format!("{f:.1}")).collect();
-            let _ = writeln!(s, "k = {:>3}  Ω = {:>8.1} rad/s  f [Hz]: {}", md.nodal_diameter, omega, freqs.join(", "));
+            let freqs: Vec<String> = md.frequencies[i]
+                .iter()
+                .take(6)
+                .map(|f| format!("{f:.1}"))
+                .collect();
+            let _ = writeln!(
+                s,
+                "k = {:>3}  Ω = {:>8.1} rad/s  f [Hz]: {}",
+                md.nodal_diameter,
+                omega,
+                freqs.join(", ")
+            );
         }
     }
     s
@@ -53,7 +63,9 @@ mod tests {
 
     #[test]
     fn info_names_the_missing_file() {
-        let err = model_info(Path::new("/nonexistent/x.rom")).unwrap_err().to_string();
+        let err = model_info(Path::new("/nonexistent/x.rom"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("/nonexistent/x.rom"), "{err}");
     }
 }

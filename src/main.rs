@@ -42,8 +42,12 @@ enum ModelAction {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Model { action: ModelAction::Build { spec, output } } => rubscan::app::model_build(spec.as_deref(), &output),
-        Command::Model { action: ModelAction::Info { file } } => rubscan::app::model_info(&file).map(|text| print!("{text}")),
+        Command::Model {
+            action: ModelAction::Build { spec, output },
+        } => rubscan::app::model_build(spec.as_deref(), &output),
+        Command::Model {
+            action: ModelAction::Info { file },
+        } => rubscan::app::model_info(&file).map(|text| print!("{text}")),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
