@@ -604,6 +604,15 @@ mod tests {
         );
     }
 
+    /// On-CPU time of the calling thread, s (Linux `schedstat`; the machine is
+    /// shared, so wall-clock time would count other processes' time slices).
+    fn thread_cpu_seconds() -> f64 {
+        std::fs::read_to_string("/proc/thread-self/schedstat")
+            .ok()
+            .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+            .map_or(f64::NAN, |ns| ns * 1e-9)
+    }
+
     /// Timing of warm-started projections (run with `--ignored --nocapture`).
     #[test]
     #[ignore]
@@ -631,24 +640,44 @@ mod tests {
             .collect();
         let reps = 200;
         let mut iters = 0usize;
-        let t0 = std::time::Instant::now();
+        let t0 = thread_cpu_seconds();
         for _ in 0..reps {
             for (x, w) in xs.iter().zip(&warm) {
                 let pr = closest_point(&c.sp, &c.q, *x, *w, DEFAULT_EPS_NR).unwrap();
                 iters += pr.iterations;
             }
         }
-        let per = t0.elapsed().as_secs_f64() / (reps * k) as f64;
+        let per = (thread_cpu_seconds() - t0) / (reps * k) as f64;
         let mut out = vec![Vector3::zeros(); c.sp.n_control()];
-        let t1 = std::time::Instant::now();
-        for _ in 0..reps {
+        let t1 = thread_cpu_seconds();
+        for _ in 0..20 * reps {
             c.sp.control_points(&c.nodes, &mut out).unwrap();
         }
-        let cp = t1.elapsed().as_secs_f64() / reps as f64;
+        let cp = (thread_cpu_seconds() - t1) / (20 * reps) as f64;
+        let t2 = thread_cpu_seconds();
+        let mut acc = Vector3::zeros();
+        for _ in 0..reps {
+            for t in &targets {
+                let e = c.sp.eval_unchecked(&c.q, t.i, t.j, t.u, t.v);
+                acc += e.s + e.su + e.sv + e.suu + e.suv + e.svv;
+            }
+        }
+        let ev = (thread_cpu_seconds() - t2) / (reps * k) as f64;
+        let t3 = thread_cpu_seconds();
+        for x in &xs {
+            iters += closest_point(&c.sp, &c.q, *x, None, DEFAULT_EPS_NR)
+                .unwrap()
+                .iterations;
+        }
+        let cold = (thread_cpu_seconds() - t3) / k as f64;
         println!(
-            "warm projection: {:.0} ns/node, {:.2} iterations/node; control_points N=100 M=5: {:.2} us",
+            "CPU time: warm projection {:.0} ns/node ({:.2} iterations/node), patch evaluation {:.1} ns ({}), \
+             cold projection {:.2} us, control_points N=100 M=5 {:.2} us",
             per * 1e9,
             iters as f64 / (reps * k) as f64,
+            ev * 1e9,
+            acc.norm() > 0.0,
+            cold * 1e6,
             cp * 1e6
         );
     }

@@ -47,7 +47,7 @@
 
 use faer::Mat;
 use faer::prelude::*;
-use nalgebra::{Matrix4, Vector3, Vector4};
+use nalgebra::{Vector3, Vector4};
 use thiserror::Error;
 
 /// Errors raised when building or using a [`CasingSpline`].
@@ -435,7 +435,8 @@ impl CasingSpline {
     }
 
     /// Dense per-node weights `w` (length `N·M`, node index `i·M + j`) with
-    /// `S(p) = Σ_n w_n P_n`; see [`CasingSpline::node_weight_factors`].
+    /// `S(p) = Σ_n w_n P_n`; see [`CasingSpline::node_weight_factors`], which is
+    /// the allocation-free form for hot loops (this one allocates two small buffers).
     pub fn node_weights(&self, p: &SurfaceParam, out: &mut [f64]) -> Result<(), SplineError> {
         check_len("node weights", self.n_nodes(), out.len())?;
         let mut wu = vec![0.0; self.n];
@@ -459,7 +460,7 @@ impl CasingSpline {
 
     /// Patch evaluation without bounds checks on `(i, j)` beyond slice indexing;
     /// callers guarantee `i < N`, `j < M−1` and `q.len() == n_control()`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn eval_unchecked(
         &self,
         q: &[Vector3<f64>],
@@ -469,40 +470,37 @@ impl CasingSpline {
         v: f64,
     ) -> PatchEval {
         let w = self.m + 2;
-        let (mut px, mut py, mut pz) = (Matrix4::zeros(), Matrix4::zeros(), Matrix4::zeros());
-        for a in 0..4 {
-            let base = (i + a) * w + j;
-            let col = &q[base..base + 4];
-            for b in 0..4 {
-                px[(a, b)] = col[b].x;
-                py[(a, b)] = col[b].y;
-                pz[(a, b)] = col[b].z;
-            }
-        }
         let (bu, du, ddu) = cubic_basis(u);
         let (bv, dv, ddv) = cubic_basis(v);
-        let one = |pc: &Matrix4<f64>| {
-            let g = pc * bv;
-            let gv = pc * dv;
-            let gvv = pc * ddv;
-            [
-                bu.dot(&g),
-                du.dot(&g),
-                bu.dot(&gv),
-                ddu.dot(&g),
-                du.dot(&gv),
-                bu.dot(&gvv),
-            ]
+        // Contract along v first (per control column a), then along u: 3 × 16
+        // multiply-adds per coordinate for S, S_v, S_vv of each column.
+        let (mut g, mut gv, mut gvv) = ([[0.0f64; 3]; 4], [[0.0f64; 3]; 4], [[0.0f64; 3]; 4]);
+        for a in 0..4 {
+            let base = (i + a) * w + j;
+            let row: &[Vector3<f64>; 4] = q[base..base + 4]
+                .try_into()
+                .expect("a slice of length 4 converts to an array of 4");
+            for c in 0..3 {
+                let (q0, q1, q2, q3) = (row[0][c], row[1][c], row[2][c], row[3][c]);
+                g[a][c] = bv[0] * q0 + bv[1] * q1 + bv[2] * q2 + bv[3] * q3;
+                gv[a][c] = dv[0] * q0 + dv[1] * q1 + dv[2] * q2 + dv[3] * q3;
+                gvv[a][c] = ddv[0] * q0 + ddv[1] * q1 + ddv[2] * q2 + ddv[3] * q3;
+            }
+        }
+        let contract = |wu: &Vector4<f64>, h: &[[f64; 3]; 4]| {
+            Vector3::new(
+                wu[0] * h[0][0] + wu[1] * h[1][0] + wu[2] * h[2][0] + wu[3] * h[3][0],
+                wu[0] * h[0][1] + wu[1] * h[1][1] + wu[2] * h[2][1] + wu[3] * h[3][1],
+                wu[0] * h[0][2] + wu[1] * h[1][2] + wu[2] * h[2][2] + wu[3] * h[3][2],
+            )
         };
-        let (x, y, z) = (one(&px), one(&py), one(&pz));
-        let v3 = |k: usize| Vector3::new(x[k], y[k], z[k]);
         PatchEval {
-            s: v3(0),
-            su: v3(1),
-            sv: v3(2),
-            suu: v3(3),
-            suv: v3(4),
-            svv: v3(5),
+            s: contract(&bu, &g),
+            su: contract(&du, &g),
+            sv: contract(&bu, &gv),
+            suu: contract(&ddu, &g),
+            suv: contract(&du, &gv),
+            svv: contract(&bu, &gvv),
         }
     }
 
