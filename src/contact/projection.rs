@@ -541,6 +541,61 @@ mod tests {
     }
 
     #[test]
+    fn ovalized_casing_projection_is_the_global_minimum() {
+        // Two-lobe distorted cone: no symmetry to lean on; compare with a dense scan.
+        let (n, m) = (20, 4);
+        let mut nodes = revolution_nodes(n, m, |s| 0.2 + 0.1 * s, |s| 0.1 * s);
+        for (k, x) in nodes.iter_mut().enumerate() {
+            let th = 2.0 * PI * (k / m) as f64 / n as f64;
+            let f = 1.0 + 0.03 * (2.0 * th).cos();
+            x.x *= f;
+            x.y *= f;
+        }
+        let mut sp = CasingSpline::new(n, m).unwrap();
+        sp.orient_toward_axis(&nodes).unwrap();
+        let mut q = vec![Vector3::zeros(); sp.n_control()];
+        sp.control_points(&nodes, &mut q).unwrap();
+        let mut grid = Vec::new();
+        for i in 0..n {
+            for j in 0..m - 1 {
+                for a in 0..20 {
+                    for b in 0..=20 {
+                        let e = sp
+                            .evaluate(&q, &p(i, j, a as f64 / 20.0, b as f64 / 20.0))
+                            .unwrap();
+                        grid.push(e.s);
+                    }
+                }
+            }
+        }
+        let mut warm = None;
+        for k in 0..40 {
+            let th = 0.37 + 2.0 * PI * k as f64 / 40.0;
+            let (r, z) = (0.2 + 0.0025 * k as f64, 0.005 + 0.0022 * k as f64);
+            let x = Vector3::new(r * th.cos(), r * th.sin(), z);
+            for start in [None, warm] {
+                let pr = closest_point(&sp, &q, x, start, 1e-9).unwrap();
+                let e = sp.evaluate(&q, &pr.param).unwrap();
+                let res = x - e.s;
+                // Stationarity (interior points) and global minimality against the scan.
+                assert!(res.dot(&e.su).abs() < 1e-10 * e.su.norm());
+                assert!(res.dot(&e.sv).abs() < 1e-10 * e.sv.norm());
+                let best = grid
+                    .iter()
+                    .map(|g| (x - g).norm())
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    res.norm() <= best + 1e-12,
+                    "node {k}: {} > scan {best}",
+                    res.norm()
+                );
+                assert!((pr.gap.abs() - res.norm()).abs() < 1e-12);
+                warm = Some(pr.param);
+            }
+        }
+    }
+
+    #[test]
     fn batch_projection_updates_warm_starts() {
         let c = cylinder();
         let xs: Vec<_> = (0..10)
