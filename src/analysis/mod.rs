@@ -1,1 +1,3 @@
-//! analysis stage.
+//! Analysis stage: spectra of probe signals and the linear interaction criterion.
+
+pub mod spectra;
