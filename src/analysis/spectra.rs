@@ -192,7 +192,7 @@ impl SpectrumAnalyzer {
         }
         // DC and Nyquist bins have no negative-frequency twin.
         self.amplitude[0] *= 0.5;
-        if n % 2 == 0 {
+        if n.is_multiple_of(2) {
             self.amplitude[n / 2] *= 0.5;
         }
         Ok(&self.amplitude)
