@@ -1,1 +1,3 @@
 //! dynamics stage.
+
+pub mod abradable;
