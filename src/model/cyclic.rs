@@ -385,13 +385,22 @@ pub(crate) mod test_support {
     /// the inner-radius left-face nodes of the other rings (leading → trailing); otherwise the
     /// structure is free and the contact nodes are outer-radius nodes inside the sector.
     pub(crate) fn truss_sector(n_sectors: usize, casing_like: bool) -> TrussSector {
+        truss_sector_dims(n_sectors, casing_like, [2, 4, 6])
+    }
+
+    /// [`truss_sector`] with a `[radial, angular, axial]` node grid; 5 contact nodes.
+    pub(crate) fn truss_sector_dims(
+        n_sectors: usize,
+        casing_like: bool,
+        dims: [usize; 3],
+    ) -> TrussSector {
         let alpha = 2.0 * PI / n_sectors as f64;
-        let (nr, nt, nz) = (2usize, 4usize, 6usize);
+        let [nr, nt, nz] = dims;
         // Face nodes first (left then right, same order) so that right[i] images left[i].
         let mut index = vec![usize::MAX; nr * nt * nz];
         let id = |ir: usize, it: usize, iz: usize| (ir * nt + it) * nz + iz;
         let mut order = vec![];
-        for it in [0, nt - 1, 1, 2] {
+        for it in [0, nt - 1].into_iter().chain(1..nt - 1) {
             for ir in 0..nr {
                 for iz in 0..nz {
                     order.push((ir, it, iz));
@@ -486,10 +495,11 @@ pub(crate) mod test_support {
         } else {
             vec![]
         };
+        let rows: Vec<usize> = (1..=5).map(|j| 1 + (j - 1) * (nz - 2) / 4).collect();
         let contact = if casing_like {
-            (1..nz).map(|iz| node(0, 0, iz)).collect()
+            rows.iter().map(|&iz| node(0, 0, iz)).collect()
         } else {
-            (1..nz).map(|iz| node(1, 1, iz)).collect()
+            rows.iter().map(|&iz| node(nr - 1, 1, iz)).collect()
         };
         TrussSector {
             n_sectors,
