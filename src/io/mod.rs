@@ -1,1 +1,4 @@
 //! io stage.
+
+pub mod parquet;
+pub mod plots;
