@@ -20,7 +20,9 @@ use serde::{Deserialize, Serialize};
 
 pub use checkpoint::{JobRecord, JobStatus};
 pub use planner::{CoatingParams, CoatingValue, Job, JobContext, JobParams, Plan, plan};
-pub use runner::{MergeSummary, RunOptions, RunSummary, merge, run_sweep};
+pub use runner::{
+    MergeSummary, RunOptions, RunSummary, load_records, merge, read_manifest, run_sweep,
+};
 pub use spec::{SpecError, SpecIssue, SweepSpec, load_spec, parse_spec};
 
 /// Runs one job of a sweep. Implementations must be deterministic for a given job

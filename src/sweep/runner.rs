@@ -223,8 +223,12 @@ fn validate_shard(shard: Option<(usize, usize)>) -> Result<()> {
     Ok(())
 }
 
-/// Collects the records of `jobs` found in `dir` (in job order).
-fn collect_records<'a>(dir: &Path, jobs: impl Iterator<Item = &'a Job>) -> Vec<(usize, JobRecord)> {
+/// Loads the records of `jobs` found in output directory `dir` as `(job index, record)`,
+/// in job order; jobs without a (valid) record are left out.
+pub fn load_records<'a>(
+    dir: &Path,
+    jobs: impl Iterator<Item = &'a Job>,
+) -> Vec<(usize, JobRecord)> {
     jobs.filter_map(|j| read_record(dir, &j.id).ok().flatten().map(|r| (j.index, r)))
         .collect()
 }
@@ -312,7 +316,7 @@ pub fn run_sweep(
         return Err(e);
     }
 
-    let records = collect_records(out, shard_jobs.iter().copied());
+    let records = load_records(out, shard_jobs.iter().copied());
     let ok = records.iter().filter(|(_, r)| r.is_ok()).count();
     let results_path = out.join("results.parquet");
     write_results(&results_path, &records)?;
