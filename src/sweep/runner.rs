@@ -224,13 +224,19 @@ fn validate_shard(shard: Option<(usize, usize)>) -> Result<()> {
 }
 
 /// Loads the records of `jobs` found in output directory `dir` as `(job index, record)`,
-/// in job order; jobs without a (valid) record are left out.
+/// in job order; jobs without a (valid) record are left out. The parameters are taken
+/// from the plan (bit-exact), not from the record's JSON.
 pub fn load_records<'a>(
     dir: &Path,
     jobs: impl Iterator<Item = &'a Job>,
 ) -> Vec<(usize, JobRecord)> {
-    jobs.filter_map(|j| read_record(dir, &j.id).ok().flatten().map(|r| (j.index, r)))
-        .collect()
+    jobs.filter_map(|j| {
+        read_record(dir, &j.id).ok().flatten().map(|mut r| {
+            r.params = j.params;
+            (j.index, r)
+        })
+    })
+    .collect()
 }
 
 /// Runs (or resumes) a sweep. Validates the spec and the options before touching the
@@ -390,9 +396,10 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
             .iter()
             .find_map(|d| read_record(d, &job.id).ok().flatten());
         match found {
-            Some(rec) => {
+            Some(mut rec) => {
                 write_record(out_dir, &rec)
                     .with_context(|| format!("cannot write record of job {}", job.id))?;
+                rec.params = job.params;
                 records.push((job.index, rec));
             }
             None => missing.push(job.id.clone()),

@@ -14,8 +14,29 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use serde_json::{Map, Value};
+
+/// JSON Schema's `integer` accepts `2.0`; accept it here too so that a schema-valid spec
+/// never fails in serde (whose errors carry no JSON path).
+fn integral_u32(v: f64) -> Result<u32, String> {
+    if v.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&v) {
+        Ok(v as u32)
+    } else {
+        Err(format!("{v} is not an integer in 0..=4294967295"))
+    }
+}
+
+fn de_u32<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+    integral_u32(f64::deserialize(d)?).map_err(serde::de::Error::custom)
+}
+
+fn de_opt_u32<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Error> {
+    Option::<f64>::deserialize(d)?
+        .map(integral_u32)
+        .transpose()
+        .map_err(serde::de::Error::custom)
+}
 
 /// The JSON Schema of a sweep spec (also shipped as `schemas/sweep.schema.json`).
 pub const SWEEP_SCHEMA: &str = include_str!("../../schemas/sweep.schema.json");
@@ -142,6 +163,7 @@ pub enum CasingSource {
 #[serde(deny_unknown_fields)]
 pub struct RigidCasing {
     /// Number of lobes n ≥ 1.
+    #[serde(deserialize_with = "de_u32")]
     pub lobes: u32,
     /// Distortion amplitude a (m), ≥ 0.
     pub amplitude_m: f64,
@@ -154,7 +176,11 @@ pub struct Scenario {
     /// Simulated time (s), > 0.
     pub duration_s: f64,
     /// Number of lobes of the casing distortion, ≥ 1.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "de_opt_u32"
+    )]
     pub lobes: Option<u32>,
     /// Pass-through fields.
     #[serde(flatten)]
@@ -230,6 +256,7 @@ pub struct Range {
     /// Last value (> 0, ≥ start).
     pub stop: f64,
     /// Number of values ≥ 1 (1 gives `start` only, which must then equal `stop`).
+    #[serde(deserialize_with = "de_u32")]
     pub count: u32,
 }
 
@@ -851,6 +878,24 @@ mod tests {
         v["grid"]["speed"]["reference_rad_s"] = serde_json::json!(100.0);
         let spec = spec_from_value(v).unwrap();
         assert_eq!(spec.grid.speed.values_rad_s(), vec![50.0, 100.0, 150.0]);
+    }
+
+    #[test]
+    fn integral_floats_accepted_like_the_schema() {
+        let mut v = base();
+        v["scenario"]["lobes"] = serde_json::json!(3.0);
+        v["grid"]["speed"] = serde_json::json!({"unit": "rad_s", "range": {"start": 1.0, "stop": 2.0, "count": 2.0}});
+        let s = spec_from_value(v.clone()).unwrap();
+        assert_eq!(
+            (s.scenario.lobes, s.grid.speed.range.unwrap().count),
+            (Some(3), 2)
+        );
+        v["scenario"]["lobes"] = serde_json::json!(2.5);
+        let i = issues_of(v);
+        assert!(
+            i.iter().any(|s| s.starts_with("/scenario/lobes: ")),
+            "{i:?}"
+        );
     }
 
     #[test]
