@@ -40,3 +40,43 @@ fn interaction_and_wear_maps_from_a_synthetic_sweep() {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
+
+#[test]
+fn standard_plots_one_interaction_map_per_slice() {
+    use rubscan::io::plots::write_sweep_plots;
+    let spec = parse_spec(
+        &serde_json::json!({
+            "name": "plots2",
+            "models": {"impeller": {"builtin": {}}, "casing": {"builtin": {}}},
+            "scenario": {"duration_s": 0.01, "lobes": 2},
+            "grid": {"speed": {"unit": "rad_s", "values": [800.0, 1000.0, 1200.0]}, "friction": [0.0, 0.2]}
+        })
+        .to_string(),
+    )
+    .unwrap();
+    let dir = std::env::temp_dir().join(format!("rubscan-sweep-plots2-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    run_sweep(
+        &spec,
+        &RunOptions::new(&dir),
+        &SyntheticSimulator::default(),
+    )
+    .unwrap();
+    let records = load_records(&dir, plan(&spec).unwrap().jobs.iter());
+    let files = write_sweep_plots(&dir, &records, &[2, 4, 6]).unwrap();
+    let names: Vec<String> = files
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    // Two friction values → two slices of three speeds each.
+    assert_eq!(
+        names,
+        [
+            "interaction_map_0.png",
+            "interaction_map_1.png",
+            "wear_map.png"
+        ]
+    );
+    assert!(files.iter().all(|f| f.exists()));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -378,3 +378,12 @@ fn panics_and_non_finite_results_are_recorded_as_failures() {
     assert!(reason.value(1).contains("non-finite") && reason.value(1).contains("casing_radial_m"));
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn shard_argument_parsing() {
+    use rubscan::sweep::parse_shard;
+    assert_eq!(parse_shard("1/4").unwrap(), (1, 4));
+    for bad in ["4/4", "1", "a/2", "0/0", "-1/2"] {
+        assert!(parse_shard(bad).is_err(), "{bad}");
+    }
+}

@@ -62,6 +62,8 @@ pub struct InteractionMapData {
     pub max_frequency_hz: Option<f64>,
     /// Colour scale span in decades below the largest amplitude.
     pub dynamic_range_decades: f64,
+    /// Extra caption text (e.g. the fixed parameters of this slice of the sweep).
+    pub subtitle: String,
 }
 
 /// A casing mode of the Campbell diagram (fixed frame, independent of Ω).
@@ -280,7 +282,11 @@ where
     let (main, bar) = root.split_horizontally(root.dim_in_pixel().0.saturating_sub(140));
     let mut chart = ChartBuilder::on(&main)
         .caption(
-            "Interaction map: blade-tip spectrum vs rotation speed",
+            if d.subtitle.is_empty() {
+                "Interaction map: blade-tip spectrum vs rotation speed".to_string()
+            } else {
+                format!("Interaction map ({})", d.subtitle)
+            },
             ("sans-serif", 22),
         )
         .margin(15)
@@ -570,6 +576,7 @@ pub fn interaction_data_from_records<'a>(
         critical_speeds_rad_s: crit,
         max_frequency_hz: None,
         dynamic_range_decades: 4.0,
+        subtitle: String::new(),
     }
 }
 
@@ -600,6 +607,76 @@ pub fn wear_data_from_records<'a>(records: impl IntoIterator<Item = &'a JobRecor
         })
         .collect();
     WearMapData { rows }
+}
+
+/// Human-readable description of a job's non-speed parameters (the slice key of an
+/// interaction map), e.g. `μ = 0.15, E ×0.1, e_abr = 0.00015 m`.
+pub fn slice_label(p: &crate::sweep::JobParams) -> String {
+    use crate::sweep::CoatingValue;
+    let mut parts = vec![format!("μ = {}", p.friction)];
+    if let Some(c) = p.clearance_m {
+        parts.push(format!("clearance = {c} m"));
+    }
+    let c = &p.coating;
+    for (name, unit, v) in [
+        ("E", "Pa", c.young),
+        ("K", "Pa", c.hardening),
+        ("σ_Y", "Pa", c.yield_stress),
+        ("e_abr", "m", c.thickness),
+    ] {
+        match v {
+            Some(CoatingValue::Absolute(x)) => parts.push(format!("{name} = {x} {unit}")),
+            Some(CoatingValue::Scale(f)) => parts.push(format!("{name} ×{f}")),
+            None => {}
+        }
+    }
+    parts.join(", ")
+}
+
+/// Writes the standard plots of a sweep output into `dir`: one interaction map per slice
+/// of the grid (jobs sharing every parameter but the speed; `interaction_map.png`, or
+/// `interaction_map_<k>.png` for slice k = 0, 1, … in job order when there are several)
+/// when the jobs kept spectra, and `wear_map.png` when they have wear profiles.
+/// Returns the files written. `records` are `(job index, record)` as from
+/// [`crate::sweep::load_records`].
+pub fn write_sweep_plots(
+    dir: &Path,
+    records: &[(usize, JobRecord)],
+    engine_orders: &[u32],
+) -> Result<Vec<PathBuf>, PlotError> {
+    let mut written = Vec::new();
+    let mut slices: Vec<(String, Vec<&JobRecord>)> = Vec::new();
+    let mut sorted: Vec<&(usize, JobRecord)> = records.iter().collect();
+    sorted.sort_by_key(|(i, _)| *i);
+    for (_, rec) in &sorted {
+        let key = slice_label(&rec.params);
+        match slices.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, v)) => v.push(rec),
+            None => slices.push((key, vec![rec])),
+        }
+    }
+    let n_slices = slices.len();
+    for (k, (label, recs)) in slices.into_iter().enumerate() {
+        let mut data = interaction_data_from_records(recs, engine_orders.to_vec());
+        if data.columns.iter().all(|c| c.amplitude_m.is_empty()) {
+            continue;
+        }
+        data.subtitle = label;
+        let path = if n_slices == 1 {
+            dir.join("interaction_map.png")
+        } else {
+            dir.join(format!("interaction_map_{k}.png"))
+        };
+        interaction_map(&data, &path)?;
+        written.push(path);
+    }
+    let wear = wear_data_from_records(sorted.iter().map(|(_, r)| r));
+    if wear.rows.iter().any(|r| !r.wear_m.is_empty()) {
+        let path = dir.join("wear_map.png");
+        wear_map(&wear, &path)?;
+        written.push(path);
+    }
+    Ok(written)
 }
 
 #[cfg(test)]
@@ -656,6 +733,7 @@ mod tests {
             critical_speeds_rad_s: vec![1000.0],
             max_frequency_hz: None,
             dynamic_range_decades: 3.0,
+            subtitle: "μ = 0.1".into(),
         }
     }
 

@@ -21,7 +21,8 @@ use serde::{Deserialize, Serialize};
 pub use checkpoint::{JobRecord, JobStatus};
 pub use planner::{CoatingParams, CoatingValue, Job, JobContext, JobParams, Plan, plan};
 pub use runner::{
-    MergeSummary, RunOptions, RunSummary, load_records, merge, read_manifest, run_sweep,
+    Manifest, MergeSummary, RunOptions, RunSummary, default_output_dir, load_records, merge,
+    parse_shard, read_manifest, run_sweep,
 };
 pub use spec::{SpecError, SpecIssue, SweepSpec, load_spec, parse_spec};
 

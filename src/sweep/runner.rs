@@ -76,6 +76,8 @@ pub struct RunSummary {
     pub cancelled: bool,
     /// Wall-clock time of the run (s).
     pub wall_time_s: f64,
+    /// Sum of the recorded wall times of the shard's finished jobs (s): the serial work.
+    pub job_time_s_total: f64,
     /// Path of the results table.
     pub results_path: PathBuf,
 }
@@ -111,6 +113,8 @@ pub struct Manifest {
     pub threads: usize,
     /// Steps per job (duration / time step) when known.
     pub steps_per_job: Option<u64>,
+    /// Work estimate of the whole plan: jobs × steps per job.
+    pub total_steps: Option<u64>,
     /// Counts.
     pub summary: RunSummary,
     /// Start time (s since the Unix epoch).
@@ -212,6 +216,28 @@ impl Reporter {
             b.finish_and_clear();
         }
     }
+}
+
+/// Parses a `--shard i/n` argument (0 ≤ i < n).
+pub fn parse_shard(text: &str) -> Result<(usize, usize)> {
+    let (i, n) = text
+        .split_once('/')
+        .ok_or_else(|| anyhow!("shard {text:?}: expected i/n, e.g. 0/4"))?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .with_context(|| format!("shard {text:?}: bad index"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .with_context(|| format!("shard {text:?}: bad count"))?;
+    validate_shard(Some((i, n)))?;
+    Ok((i, n))
+}
+
+/// Default output directory of a sweep: `results/<name>` under `root`.
+pub fn default_output_dir(root: &Path, spec: &SweepSpec) -> PathBuf {
+    root.join("results").join(&spec.name)
 }
 
 fn validate_shard(shard: Option<(usize, usize)>) -> Result<()> {
@@ -336,6 +362,7 @@ pub fn run_sweep(
         unfinished: shard_jobs.len() - records.len(),
         cancelled: opts.cancel.load(Ordering::SeqCst),
         wall_time_s: t0.elapsed().as_secs_f64(),
+        job_time_s_total: records.iter().map(|(_, r)| r.wall_time_s).sum(),
         results_path,
     };
     let manifest = Manifest {
@@ -346,6 +373,7 @@ pub fn run_sweep(
         merged_from: Vec::new(),
         threads: opts.threads,
         steps_per_job: plan.steps_per_job,
+        total_steps: plan.total_steps,
         complete: summary.unfinished == 0,
         summary: summary.clone(),
         started_unix_s,
@@ -418,6 +446,7 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
         unfinished: missing.len(),
         cancelled: false,
         wall_time_s: t0.elapsed().as_secs_f64(),
+        job_time_s_total: records.iter().map(|(_, r)| r.wall_time_s).sum(),
         results_path: results_path.clone(),
     };
     let out_manifest = Manifest {
@@ -428,6 +457,7 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
         merged_from: shard_dirs.to_vec(),
         threads: 0,
         steps_per_job: plan.steps_per_job,
+        total_steps: plan.total_steps,
         complete: missing.is_empty(),
         summary,
         started_unix_s,
