@@ -1,4 +1,6 @@
 //! Input and output: the only stage that touches the file system.
 
+pub mod parquet;
+pub mod plots;
 pub mod rom_file;
 pub mod timeseries;

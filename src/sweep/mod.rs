@@ -1,1 +1,162 @@
-//! sweep stage.
+//! Sweep stage: specification, planner, runner with checkpoint/resume (DESIGN.md §6).
+//!
+//! Pipeline: [`spec::load_spec`] → [`planner::plan`] → [`runner::run_sweep`] (one
+//! [`JobSimulator::run`] per job on a rayon pool, each finished job persisted at once
+//! under `<out>/jobs/<id>.json`) → `<out>/results.parquet` + `<out>/manifest.json`;
+//! shard outputs combine with [`runner::merge`].
+//!
+//! The simulation itself is behind the [`JobSimulator`] trait; [`synthetic::SyntheticSimulator`]
+//! is a deterministic analytic stand-in used by the tests.
+
+pub mod checkpoint;
+pub mod planner;
+pub mod runner;
+pub mod spec;
+pub mod synthetic;
+
+use std::sync::atomic::AtomicBool;
+
+use serde::{Deserialize, Serialize};
+
+pub use checkpoint::{JobRecord, JobStatus};
+pub use planner::{CoatingParams, CoatingValue, Job, JobContext, JobParams, Plan, plan};
+pub use runner::{
+    Manifest, MergeSummary, RunOptions, RunSummary, default_output_dir, load_records, merge,
+    parse_shard, read_manifest, run_sweep,
+};
+pub use spec::{SpecError, SpecIssue, SweepSpec, load_spec, parse_spec};
+
+/// Runs one job of a sweep. Implementations must be deterministic for a given job
+/// (the resume and sharding guarantees rely on it) and single-threaded inside
+/// (the runner parallelises over jobs).
+pub trait JobSimulator: Sync {
+    /// Runs `job`. `Err(reason)` marks the job failed (diverged, invalid model…); the
+    /// sweep goes on. Long simulations should poll `cancel` (set on Ctrl-C) and return
+    /// early with any `Err`: a job that returns while `cancel` is set is not recorded
+    /// and will run again on resume.
+    fn run(&self, job: &Job, cancel: &AtomicBool) -> Result<JobResult, String>;
+}
+
+/// Maxima over the simulated time of one job.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Maxima {
+    /// Largest |radial displacement| of any blade leading-edge node (m).
+    pub blade_le_radial_m: f64,
+    /// Largest |radial displacement| of any blade trailing-edge node (m).
+    pub blade_te_radial_m: f64,
+    /// Largest |radial displacement| of the casing probe nodes (m).
+    pub casing_radial_m: f64,
+    /// Largest normal contact force, summed over a blade (N).
+    pub contact_normal_force_n: f64,
+    /// Largest abradable-coating force, summed over a blade (N).
+    pub coating_force_n: f64,
+}
+
+/// One peak of the blade-tip radial displacement spectrum.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FourierPeak {
+    /// Frequency (Hz).
+    pub frequency_hz: f64,
+    /// Engine order: frequency / (Ω / 2π).
+    pub engine_order: f64,
+    /// One-sided amplitude (m).
+    pub amplitude_m: f64,
+}
+
+/// Nearest critical speed of the linear interaction criterion n Ω − ω_b(Ω) = ω_c (DESIGN.md §5).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CriticalSpeed {
+    /// Critical speed Ω*_n (rad/s).
+    pub speed_rad_s: f64,
+    /// Nodal diameter n of the coincidence.
+    pub nodal_diameter: u32,
+    /// Spatial compatibility of the two mode shapes at the contact interface, in [0, 1].
+    pub compatibility: f64,
+}
+
+/// Amplitude spectrum of the blade-tip radial displacement on a uniform frequency grid
+/// f_k = k · df_hz, k = 0, 1, …
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Spectrum {
+    /// Frequency resolution (Hz).
+    pub df_hz: f64,
+    /// One-sided amplitudes (m).
+    pub amplitude_m: Vec<f64>,
+}
+
+/// What one successful job produces (aggregates only; time series stay with the simulator).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct JobResult {
+    /// Maxima over time.
+    pub maxima: Maxima,
+    /// Final wear depth (m): outer index = station along the meridian (leading → trailing
+    /// edge), inner index = angle θ_k = 2π k / n_angles, k = 0..n_angles.
+    pub wear_profile_m: Vec<Vec<f64>>,
+    /// Spectrum peaks, largest first.
+    pub fourier_peaks: Vec<FourierPeak>,
+    /// Strain energy per nodal diameter k = 0..=N/2 (J) (paper eqs. 20–22).
+    pub strain_energy_per_nd_j: Vec<f64>,
+    /// Largest penetration left at the end of the simulation (m, ≥ 0).
+    pub residual_penetration_m: f64,
+    /// Nearest critical speed, if the criterion was evaluated.
+    pub critical_speed: Option<CriticalSpeed>,
+    /// Full amplitude spectrum (for interaction maps), if kept.
+    pub spectrum: Option<Spectrum>,
+}
+
+impl JobResult {
+    /// Checks that every number is finite (JSON cannot store NaN/∞, and a non-finite
+    /// aggregate means the simulation diverged). Returns the offending field.
+    pub fn check_finite(&self) -> Result<(), String> {
+        let m = &self.maxima;
+        let scalars = [
+            ("maxima.blade_le_radial_m", m.blade_le_radial_m),
+            ("maxima.blade_te_radial_m", m.blade_te_radial_m),
+            ("maxima.casing_radial_m", m.casing_radial_m),
+            ("maxima.contact_normal_force_n", m.contact_normal_force_n),
+            ("maxima.coating_force_n", m.coating_force_n),
+            ("residual_penetration_m", self.residual_penetration_m),
+        ];
+        for (name, v) in scalars {
+            if !v.is_finite() {
+                return Err(format!("non-finite result: {name} = {v}"));
+            }
+        }
+        let bad = |name: &str, it: &mut dyn Iterator<Item = f64>| -> Result<(), String> {
+            for v in it {
+                if !v.is_finite() {
+                    return Err(format!("non-finite result: {name} contains {v}"));
+                }
+            }
+            Ok(())
+        };
+        bad(
+            "wear_profile_m",
+            &mut self.wear_profile_m.iter().flatten().copied(),
+        )?;
+        bad(
+            "fourier_peaks",
+            &mut self
+                .fourier_peaks
+                .iter()
+                .flat_map(|p| [p.frequency_hz, p.engine_order, p.amplitude_m]),
+        )?;
+        bad(
+            "strain_energy_per_nd_j",
+            &mut self.strain_energy_per_nd_j.iter().copied(),
+        )?;
+        if let Some(c) = &self.critical_speed {
+            bad(
+                "critical_speed",
+                &mut [c.speed_rad_s, c.compatibility].into_iter(),
+            )?;
+        }
+        if let Some(s) = &self.spectrum {
+            bad(
+                "spectrum",
+                &mut std::iter::once(s.df_hz).chain(s.amplitude_m.iter().copied()),
+            )?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,436 @@
+//! Planner: expands a validated [`SweepSpec`] into [`Job`]s with fully resolved
+//! parameters and stable ids.
+//!
+//! Order: full factorial over the axes in [`AxisName::ALL`] order, with speed
+//! varying fastest (so consecutive jobs form a speed scan, the natural layout of
+//! an interaction map). Zipped axes form one combined axis placed at the slot of
+//! the first zipped axis. The order depends only on the spec.
+//!
+//! Job id: FNV-1a 64-bit hash of the canonical JSON (keys sorted, no whitespace,
+//! floats in serde_json's shortest round-trip form) of
+//! `{"params": …, "models": …, "scenario": …, "numerics": …}`, printed as 16 hex digits.
+//! The sweep name, description and the job's position are *not* hashed, so
+//! renaming a sweep, reordering axes or extending a grid keeps the ids (and the
+//! finished results) of the jobs that did not change. ROM paths enter the hash by
+//! file name only (so a sweep directory can move between machines); changing a
+//! ROM file's content keeps the id — delete the job files to force a re-run.
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use super::spec::{
+    AxisName, CasingSource, CoatingAxis, ModelSource, Numerics, Scenario, SpecError, SweepSpec,
+};
+
+/// A coating property setting of one job.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CoatingValue {
+    /// Absolute value (Pa for moduli and stress, m for thickness).
+    Absolute(f64),
+    /// Factor on the model's nominal value (resolved by the simulator).
+    Scale(f64),
+}
+
+/// Coating settings of one job; `None` = the model's nominal value.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct CoatingParams {
+    /// Young's modulus E.
+    pub young: Option<CoatingValue>,
+    /// Plastic (hardening) modulus K.
+    pub hardening: Option<CoatingValue>,
+    /// Yield stress σ_Y.
+    pub yield_stress: Option<CoatingValue>,
+    /// Thickness e_abr.
+    pub thickness: Option<CoatingValue>,
+}
+
+/// Fully resolved grid parameters of one job.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct JobParams {
+    /// Rotation speed Ω (rad/s).
+    pub speed_rad_s: f64,
+    /// Coulomb friction coefficient μ.
+    pub friction: f64,
+    /// Clearance (m); `None` = the model's own.
+    pub clearance_m: Option<f64>,
+    /// Coating settings.
+    pub coating: CoatingParams,
+}
+
+/// What is common to every job of a sweep: models, scenario and numerics as given
+/// in the spec (ROM paths resolved by [`SweepSpec::resolve_paths`] if the spec was loaded from a file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JobContext {
+    /// Impeller model.
+    pub impeller: ModelSource,
+    /// Casing model.
+    pub casing: CasingSource,
+    /// Scenario, with pass-through fields.
+    pub scenario: Scenario,
+    /// Numerics, with pass-through fields.
+    pub numerics: Numerics,
+}
+
+/// One simulation of a sweep.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// Position in the plan (0-based; the row order of the results table).
+    pub index: usize,
+    /// Stable id: 16 hex digits of the FNV-1a 64 hash (see module docs).
+    pub id: String,
+    /// Grid parameters.
+    pub params: JobParams,
+    /// Models, scenario and numerics shared by all jobs.
+    pub context: Arc<JobContext>,
+}
+
+/// The expanded sweep.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// Jobs in deterministic order; `jobs[i].index == i`.
+    pub jobs: Vec<Job>,
+    /// Time steps per job, ⌈duration_s / time_step_s⌉, when the time step is given.
+    pub steps_per_job: Option<u64>,
+    /// Work estimate: jobs × steps per job.
+    pub total_steps: Option<u64>,
+}
+
+/// FNV-1a 64-bit hash of a byte string (offset basis 0xcbf29ce484222325, prime 0x100000001b3).
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// Canonical JSON text: object keys sorted (byte order), no whitespace. Independent of
+/// whether serde_json preserves insertion order.
+pub fn canonical_json(v: &Value) -> String {
+    let mut out = String::new();
+    write_canonical(v, &mut out);
+    out
+}
+
+fn write_canonical(v: &Value, out: &mut String) {
+    match v {
+        Value::Object(m) => {
+            let mut keys: Vec<&String> = m.keys().collect();
+            keys.sort();
+            out.push('{');
+            for (i, k) in keys.into_iter().enumerate() {
+                if i > 0 {
+                    out.push(',');
+                }
+                out.push_str(&Value::String(k.clone()).to_string());
+                out.push(':');
+                write_canonical(&m[k], out);
+            }
+            out.push('}');
+        }
+        Value::Array(a) => {
+            out.push('[');
+            for (i, x) in a.iter().enumerate() {
+                if i > 0 {
+                    out.push(',');
+                }
+                write_canonical(x, out);
+            }
+            out.push(']');
+        }
+        other => out.push_str(&other.to_string()),
+    }
+}
+
+/// Stable id of a job from its parameters and the shared context (see module docs).
+pub fn job_id(params: &JobParams, context_json: &Value) -> String {
+    let mut doc = context_json.clone();
+    if let Value::Object(m) = &mut doc {
+        // Serialization of plain structs/f64 into Value cannot fail.
+        m.insert(
+            "params".into(),
+            serde_json::to_value(params).unwrap_or(Value::Null),
+        );
+    }
+    format!("{:016x}", fnv1a64(canonical_json(&doc).as_bytes()))
+}
+
+/// One value of one axis.
+#[derive(Clone, Copy)]
+enum AxisValue {
+    Speed(f64),
+    Friction(f64),
+    Clearance(f64),
+    Coating(AxisName, CoatingValue),
+}
+
+fn axis_values(spec: &SweepSpec, axis: AxisName) -> Option<Vec<AxisValue>> {
+    let coating = |a: &Option<CoatingAxis>| -> Option<Vec<AxisValue>> {
+        a.as_ref().map(|a| match a {
+            CoatingAxis::Values(v) => v
+                .iter()
+                .map(|&x| AxisValue::Coating(axis, CoatingValue::Absolute(x)))
+                .collect(),
+            CoatingAxis::Scale(v) => v
+                .iter()
+                .map(|&x| AxisValue::Coating(axis, CoatingValue::Scale(x)))
+                .collect(),
+        })
+    };
+    let g = &spec.grid;
+    match axis {
+        AxisName::Speed => Some(
+            g.speed
+                .values_rad_s()
+                .into_iter()
+                .map(AxisValue::Speed)
+                .collect(),
+        ),
+        AxisName::Friction => Some(g.friction.iter().map(|&x| AxisValue::Friction(x)).collect()),
+        AxisName::Clearance => g
+            .clearance_m
+            .as_ref()
+            .map(|v| v.iter().map(|&x| AxisValue::Clearance(x)).collect()),
+        AxisName::CoatingYoung => g.coating.as_ref().and_then(|c| coating(&c.young)),
+        AxisName::CoatingHardening => g.coating.as_ref().and_then(|c| coating(&c.hardening)),
+        AxisName::CoatingYieldStress => g.coating.as_ref().and_then(|c| coating(&c.yield_stress)),
+        AxisName::CoatingThickness => g.coating.as_ref().and_then(|c| coating(&c.thickness)),
+    }
+}
+
+fn apply(p: &mut JobParams, v: AxisValue) {
+    match v {
+        AxisValue::Speed(x) => p.speed_rad_s = x,
+        AxisValue::Friction(x) => p.friction = x,
+        AxisValue::Clearance(x) => p.clearance_m = Some(x),
+        AxisValue::Coating(AxisName::CoatingYoung, c) => p.coating.young = Some(c),
+        AxisValue::Coating(AxisName::CoatingHardening, c) => p.coating.hardening = Some(c),
+        AxisValue::Coating(AxisName::CoatingYieldStress, c) => p.coating.yield_stress = Some(c),
+        AxisValue::Coating(_, c) => p.coating.thickness = Some(c),
+    }
+}
+
+/// Expands a spec into its jobs (validates the spec first).
+///
+/// Errors: the spec's validation issues; a duplicate job (two grid points that
+/// resolve to identical parameters, e.g. a repeated list value), which would make
+/// ids ambiguous, is reported against the grid.
+pub fn plan(spec: &SweepSpec) -> Result<Plan, SpecError> {
+    spec.validate()?;
+    // Combined axes: each is a list of "points", a point being one value per member axis.
+    let mut combined: Vec<Vec<Vec<AxisValue>>> = Vec::new();
+    let mut zipped_done = false;
+    for axis in AxisName::ALL {
+        let Some(values) = axis_values(spec, axis) else {
+            continue;
+        };
+        if spec.grid.zip.contains(&axis) {
+            if zipped_done {
+                continue;
+            }
+            zipped_done = true;
+            // All zipped axes have equal lengths (validated).
+            let members: Vec<Vec<AxisValue>> = AxisName::ALL
+                .iter()
+                .filter(|a| spec.grid.zip.contains(a))
+                .filter_map(|&a| axis_values(spec, a))
+                .collect();
+            let n = members[0].len();
+            combined.push(
+                (0..n)
+                    .map(|i| members.iter().map(|m| m[i]).collect())
+                    .collect(),
+            );
+        } else {
+            combined.push(values.into_iter().map(|v| vec![v]).collect());
+        }
+    }
+    let n_jobs: usize = combined.iter().map(Vec::len).product();
+
+    let context = Arc::new(JobContext {
+        impeller: spec.models.impeller.clone(),
+        casing: spec.models.casing.clone(),
+        scenario: spec.scenario.clone(),
+        numerics: spec.numerics.clone(),
+    });
+    // ROM paths enter the id by file name only, so moving the sweep directory keeps ids.
+    let context_json = context_hash_json(&context);
+
+    let mut jobs = Vec::with_capacity(n_jobs);
+    let mut seen = std::collections::HashMap::with_capacity(n_jobs);
+    for index in 0..n_jobs {
+        let mut params = JobParams {
+            speed_rad_s: 0.0,
+            friction: 0.0,
+            clearance_m: None,
+            coating: CoatingParams::default(),
+        };
+        // Mixed radix, first combined axis (speed) fastest.
+        let mut rest = index;
+        for axis in &combined {
+            let k = rest % axis.len();
+            rest /= axis.len();
+            for &v in &axis[k] {
+                apply(&mut params, v);
+            }
+        }
+        let id = job_id(&params, &context_json);
+        if let Some(prev) = seen.insert(id.clone(), index) {
+            return Err(SpecError::Invalid(vec![super::spec::SpecIssue {
+                path: "/grid".into(),
+                reason: format!(
+                    "jobs {prev} and {index} have identical parameters (repeated grid value?)"
+                ),
+            }]));
+        }
+        jobs.push(Job {
+            index,
+            id,
+            params,
+            context: Arc::clone(&context),
+        });
+    }
+    let steps_per_job = spec
+        .numerics
+        .time_step_s
+        .map(|h| (spec.scenario.duration_s / h).ceil() as u64);
+    Ok(Plan {
+        total_steps: steps_per_job.map(|s| s.saturating_mul(n_jobs as u64)),
+        steps_per_job,
+        jobs,
+    })
+}
+
+/// The JSON of the context that enters the job id: ROM paths reduced to their file
+/// names so that the id does not depend on where the sweep directory lives.
+fn context_hash_json(ctx: &JobContext) -> Value {
+    let mut v = serde_json::to_value(ctx).unwrap_or(Value::Null);
+    for comp in ["impeller", "casing"] {
+        if let Some(Value::String(p)) = v.get_mut(comp).and_then(|c| c.get_mut("rom")) {
+            let name = std::path::Path::new(p.as_str())
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            *p = name;
+        }
+    }
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::spec::spec_from_value;
+
+    fn spec(grid: Value) -> SweepSpec {
+        spec_from_value(serde_json::json!({
+            "name": "t",
+            "models": {"impeller": {"builtin": {}}, "casing": {"builtin": {}}},
+            "scenario": {"duration_s": 0.01},
+            "numerics": {"time_step_s": 1e-4},
+            "grid": grid
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn fnv1a_reference_vectors() {
+        // Published FNV-1a 64 test vectors (Fowler/Noll/Vo reference test suite).
+        assert_eq!(fnv1a64(b""), 0xcbf29ce484222325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63dc4c8601ec8c);
+        assert_eq!(fnv1a64(b"foobar"), 0x85944171f73967e8);
+    }
+
+    #[test]
+    fn canonical_json_ignores_key_order() {
+        let a: Value = serde_json::from_str(r#"{"b":1,"a":{"y":[1,2],"x":0.5}}"#).unwrap();
+        let b: Value = serde_json::from_str(r#"{"a":{"x":0.5,"y":[1,2]},"b":1}"#).unwrap();
+        assert_eq!(canonical_json(&a), canonical_json(&b));
+        assert_eq!(canonical_json(&a), r#"{"a":{"x":0.5,"y":[1,2]},"b":1}"#);
+    }
+
+    #[test]
+    fn full_factorial_count_order_and_estimate() {
+        let s = spec(serde_json::json!({
+            "speed": {"unit": "rad_s", "values": [10.0, 20.0, 30.0]},
+            "friction": [0.0, 0.1],
+            "clearance_m": [1e-4, 2e-4]
+        }));
+        let p = plan(&s).unwrap();
+        assert_eq!(p.jobs.len(), 12);
+        assert_eq!(p.steps_per_job, Some(100));
+        assert_eq!(p.total_steps, Some(1200));
+        // Speed fastest, then friction, then clearance.
+        let got: Vec<(f64, f64, f64)> = p
+            .jobs
+            .iter()
+            .map(|j| {
+                (
+                    j.params.speed_rad_s,
+                    j.params.friction,
+                    j.params.clearance_m.unwrap(),
+                )
+            })
+            .collect();
+        let mut want = Vec::new();
+        for c in [1e-4, 2e-4] {
+            for f in [0.0, 0.1] {
+                for w in [10.0, 20.0, 30.0] {
+                    want.push((w, f, c));
+                }
+            }
+        }
+        assert_eq!(got, want);
+        assert!(p.jobs.iter().enumerate().all(|(i, j)| j.index == i));
+    }
+
+    #[test]
+    fn zipped_axes_vary_together() {
+        let s = spec(serde_json::json!({
+            "speed": {"unit": "rad_s", "values": [10.0, 20.0]},
+            "friction": [0.1],
+            "coating": {"young": {"scale": [0.1, 10.0]}, "hardening": {"scale": [0.1, 10.0]}},
+            "zip": ["coating.young", "coating.hardening"]
+        }));
+        let p = plan(&s).unwrap();
+        assert_eq!(p.jobs.len(), 4);
+        for j in &p.jobs {
+            assert_eq!(j.params.coating.young, j.params.coating.hardening);
+        }
+    }
+
+    #[test]
+    fn ids_stable_unique_and_sensitive() {
+        let g = serde_json::json!({"speed": {"unit": "rad_s", "values": [10.0, 20.0]}, "friction": [0.0, 0.1]});
+        let p1 = plan(&spec(g.clone())).unwrap();
+        let p2 = plan(&spec(g)).unwrap();
+        let ids1: Vec<&str> = p1.jobs.iter().map(|j| j.id.as_str()).collect();
+        let ids2: Vec<&str> = p2.jobs.iter().map(|j| j.id.as_str()).collect();
+        assert_eq!(ids1, ids2);
+        let set: std::collections::HashSet<_> = ids1.iter().collect();
+        assert_eq!(set.len(), ids1.len());
+        // Extending the grid keeps ids of existing points; changing the scenario changes all.
+        let p3 = plan(&spec(serde_json::json!({"speed": {"unit": "rad_s", "values": [10.0, 20.0, 40.0]}, "friction": [0.0, 0.1]}))).unwrap();
+        for j in &p1.jobs {
+            assert!(p3.jobs.iter().any(|k| k.id == j.id));
+        }
+        let mut s4 = spec(
+            serde_json::json!({"speed": {"unit": "rad_s", "values": [10.0, 20.0]}, "friction": [0.0, 0.1]}),
+        );
+        s4.scenario.duration_s = 0.02;
+        let p4 = plan(&s4).unwrap();
+        assert!(p4.jobs.iter().all(|j| !ids1.contains(&j.id.as_str())));
+    }
+
+    #[test]
+    fn duplicate_grid_values_rejected() {
+        let s = spec(
+            serde_json::json!({"speed": {"unit": "rad_s", "values": [10.0, 10.0]}, "friction": [0.0]}),
+        );
+        assert!(plan(&s).is_err());
+    }
+}

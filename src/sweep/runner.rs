@@ -1,0 +1,473 @@
+//! Runner: executes the jobs of a plan on a rayon pool with checkpoint/resume,
+//! sharding and cancellation, then writes `results.parquet` and `manifest.json`.
+//!
+//! Output directory layout:
+//! ```text
+//! <out>/jobs/<id>.json     one record per finished job (ok or failed), written atomically
+//! <out>/results.parquet    one row per finished job, sorted by job index
+//! <out>/manifest.json      resolved spec, version, counts, timings
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Context, Result, anyhow, bail};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::checkpoint::{JobRecord, read_record, write_json_atomic, write_record};
+use super::planner::{Job, Plan, canonical_json, plan};
+use super::spec::SweepSpec;
+use super::{JobSimulator, checkpoint};
+use crate::io::parquet::write_results;
+
+/// Options of [`run_sweep`].
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Worker threads (0 = rayon's default, one per core).
+    pub threads: usize,
+    /// Run only jobs whose index ≡ i (mod n): `Some((i, n))`, 0 ≤ i < n.
+    pub shard: Option<(usize, usize)>,
+    /// Output directory (created if needed).
+    pub output_dir: PathBuf,
+    /// Draw an indicatif progress bar (true) or print plain log lines on stderr (false).
+    pub progress: bool,
+    /// Re-run jobs whose record says failed (default: failed jobs count as finished).
+    pub retry_failed: bool,
+    /// Set to stop cleanly: no new job starts, jobs in flight are not recorded unless they
+    /// complete, results and manifest are written for what is finished.
+    pub cancel: Arc<AtomicBool>,
+}
+
+impl RunOptions {
+    /// Options with defaults: all cores, no shard, log lines, no retry, fresh cancel flag.
+    pub fn new(output_dir: impl Into<PathBuf>) -> Self {
+        RunOptions {
+            threads: 0,
+            shard: None,
+            output_dir: output_dir.into(),
+            progress: false,
+            retry_failed: false,
+            cancel: Arc::new(AtomicBool::new(false)),
+        }
+    }
+}
+
+/// What a run did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    /// Jobs in the whole plan.
+    pub planned: usize,
+    /// Jobs in this shard (= planned without sharding).
+    pub in_shard: usize,
+    /// Jobs skipped because a record already existed (resume).
+    pub skipped: usize,
+    /// Jobs run (and recorded) by this invocation.
+    pub ran: usize,
+    /// Finished jobs of the shard with status ok (including skipped ones).
+    pub ok: usize,
+    /// Finished jobs of the shard with status failed (including skipped ones).
+    pub failed: usize,
+    /// Jobs of the shard left unfinished (cancellation).
+    pub unfinished: usize,
+    /// True when the cancel flag stopped the run.
+    pub cancelled: bool,
+    /// Wall-clock time of the run (s).
+    pub wall_time_s: f64,
+    /// Sum of the recorded wall times of the shard's finished jobs (s): the serial work.
+    pub job_time_s_total: f64,
+    /// Path of the results table.
+    pub results_path: PathBuf,
+}
+
+/// What [`merge`] did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MergeSummary {
+    /// Jobs in the plan.
+    pub planned: usize,
+    /// Jobs found in some shard directory.
+    pub found: usize,
+    /// Ids of planned jobs found nowhere.
+    pub missing: Vec<String>,
+    /// Path of the merged results table.
+    pub results_path: PathBuf,
+}
+
+/// `manifest.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Manifest {
+    /// rubscan version that wrote the output.
+    pub rubscan_version: String,
+    /// Sweep name.
+    pub sweep: String,
+    /// The spec (ROM paths resolved).
+    pub spec: SweepSpec,
+    /// Shard (i, n) when sharded.
+    pub shard: Option<(usize, usize)>,
+    /// Directories merged into this one (merge only).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub merged_from: Vec<PathBuf>,
+    /// Worker threads used (0 = default).
+    pub threads: usize,
+    /// Steps per job (duration / time step) when known.
+    pub steps_per_job: Option<u64>,
+    /// Work estimate of the whole plan: jobs × steps per job.
+    pub total_steps: Option<u64>,
+    /// Counts.
+    pub summary: RunSummary,
+    /// Start time (s since the Unix epoch).
+    pub started_unix_s: f64,
+    /// True when every job of the shard (or plan, for merges) is finished.
+    pub complete: bool,
+}
+
+fn now_unix_s() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
+}
+
+fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = p.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = p.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic payload".into()
+    }
+}
+
+/// Runs one job, converting panics and non-finite results into failures.
+/// `None` = cancelled while running (not to be recorded).
+fn execute(job: &Job, sim: &dyn JobSimulator, cancel: &AtomicBool) -> Option<JobRecord> {
+    let t0 = Instant::now();
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sim.run(job, cancel)))
+        .unwrap_or_else(|p| Err(format!("simulator panicked: {}", panic_message(p.as_ref()))));
+    let wall = t0.elapsed().as_secs_f64();
+    match outcome {
+        Err(_) if cancel.load(Ordering::SeqCst) => None,
+        Err(reason) => Some(JobRecord::new(job, Err(reason), wall)),
+        Ok(r) => {
+            let outcome = r.check_finite().map(|()| r);
+            Some(JobRecord::new(job, outcome, wall))
+        }
+    }
+}
+
+/// Reporter: indicatif bar or plain stderr lines.
+struct Reporter {
+    bar: Option<indicatif::ProgressBar>,
+    total: usize,
+    done: AtomicUsize,
+}
+
+impl Reporter {
+    fn new(total: usize, progress: bool) -> Self {
+        let bar = progress.then(|| {
+            let pb = indicatif::ProgressBar::new(total as u64);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{wide_bar}] {pos}/{len} jobs, ETA {eta} {msg}",
+            ) {
+                pb.set_style(style);
+            }
+            pb
+        });
+        Reporter {
+            bar,
+            total,
+            done: AtomicUsize::new(0),
+        }
+    }
+
+    fn log(&self, line: &str) {
+        match &self.bar {
+            Some(b) => b.println(line),
+            None => eprintln!("{line}"),
+        }
+    }
+
+    fn finished(&self, job: &Job, rec: &JobRecord) {
+        let n = self.done.fetch_add(1, Ordering::SeqCst) + 1;
+        let status = match &rec.status {
+            checkpoint::JobStatus::Ok => "ok".to_string(),
+            checkpoint::JobStatus::Failed { reason } => format!("FAILED: {reason}"),
+        };
+        let msg = format!(
+            "job {} ({}) Ω = {:.4} rad/s μ = {} {status} in {:.2} s",
+            job.index, job.id, job.params.speed_rad_s, job.params.friction, rec.wall_time_s
+        );
+        match &self.bar {
+            Some(b) => {
+                if !rec.is_ok() {
+                    b.println(format!("[sweep] {msg}"));
+                }
+                b.set_message(msg);
+                b.inc(1);
+            }
+            None => eprintln!("[sweep] {n}/{} {msg}", self.total),
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Parses a `--shard i/n` argument (0 ≤ i < n).
+pub fn parse_shard(text: &str) -> Result<(usize, usize)> {
+    let (i, n) = text
+        .split_once('/')
+        .ok_or_else(|| anyhow!("shard {text:?}: expected i/n, e.g. 0/4"))?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .with_context(|| format!("shard {text:?}: bad index"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .with_context(|| format!("shard {text:?}: bad count"))?;
+    validate_shard(Some((i, n)))?;
+    Ok((i, n))
+}
+
+/// Default output directory of a sweep: `results/<name>` under `root`.
+pub fn default_output_dir(root: &Path, spec: &SweepSpec) -> PathBuf {
+    root.join("results").join(&spec.name)
+}
+
+fn validate_shard(shard: Option<(usize, usize)>) -> Result<()> {
+    if let Some((i, n)) = shard
+        && (n == 0 || i >= n)
+    {
+        bail!("invalid shard {i}/{n}: need 0 ≤ i < n");
+    }
+    Ok(())
+}
+
+/// Loads the records of `jobs` found in output directory `dir` as `(job index, record)`,
+/// in job order; jobs without a (valid) record are left out. The parameters are taken
+/// from the plan (bit-exact), not from the record's JSON.
+pub fn load_records<'a>(
+    dir: &Path,
+    jobs: impl Iterator<Item = &'a Job>,
+) -> Vec<(usize, JobRecord)> {
+    jobs.filter_map(|j| {
+        read_record(dir, &j.id).ok().flatten().map(|mut r| {
+            r.params = j.params;
+            (j.index, r)
+        })
+    })
+    .collect()
+}
+
+/// Runs (or resumes) a sweep. Validates the spec and the options before touching the
+/// file system, so a bad spec writes nothing.
+///
+/// Jobs already recorded in `<out>/jobs/` are skipped (failed ones too, unless
+/// `retry_failed`); a failing job is recorded with its reason and the sweep goes on.
+/// The results table and manifest cover the jobs of this shard finished so far.
+pub fn run_sweep(
+    spec: &SweepSpec,
+    opts: &RunOptions,
+    sim: &dyn JobSimulator,
+) -> Result<RunSummary> {
+    let started_unix_s = now_unix_s();
+    let t0 = Instant::now();
+    validate_shard(opts.shard)?;
+    let plan: Plan = plan(spec).map_err(|e| anyhow!(e))?;
+    let out = &opts.output_dir;
+    let shard_jobs: Vec<&Job> = plan
+        .jobs
+        .iter()
+        .filter(|j| opts.shard.is_none_or(|(i, n)| j.index % n == i))
+        .collect();
+
+    std::fs::create_dir_all(checkpoint::jobs_dir(out))
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
+
+    let mut pending = Vec::new();
+    let mut skipped = 0;
+    for &job in &shard_jobs {
+        match read_record(out, &job.id) {
+            Ok(Some(rec)) if rec.is_ok() || !opts.retry_failed => skipped += 1,
+            Ok(_) => pending.push(job),
+            Err(reason) => {
+                eprintln!(
+                    "[sweep] warning: {reason}; job {} will run again",
+                    job.index
+                );
+                pending.push(job);
+            }
+        }
+    }
+
+    let reporter = Reporter::new(pending.len(), opts.progress);
+    if skipped > 0 {
+        reporter.log(&format!(
+            "[sweep] resuming: {skipped} of {} jobs already finished",
+            shard_jobs.len()
+        ));
+    }
+    let ran = AtomicUsize::new(0);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .context("cannot build the worker thread pool")?;
+    // faer parallelism inside a job would oversubscribe the job-level pool (crates.md pitfall 2).
+    faer::set_global_parallelism(faer::Par::Seq);
+    let write_error: Mutex<Option<anyhow::Error>> = Mutex::new(None);
+    let cancel = &*opts.cancel;
+    pool.install(|| {
+        pending.par_iter().for_each(|&job| {
+            if cancel.load(Ordering::SeqCst) {
+                return;
+            }
+            let Some(rec) = execute(job, sim, cancel) else {
+                return;
+            };
+            if let Err(e) = write_record(out, &rec) {
+                // A write failure (disk full…) stops the sweep like a cancellation.
+                cancel.store(true, Ordering::SeqCst);
+                let mut slot = write_error.lock().unwrap_or_else(|p| p.into_inner());
+                slot.get_or_insert(
+                    anyhow!(e).context(format!("cannot write record of job {}", job.id)),
+                );
+                return;
+            }
+            ran.fetch_add(1, Ordering::SeqCst);
+            reporter.finished(job, &rec);
+        });
+    });
+    reporter.finish();
+    if let Some(e) = write_error.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        return Err(e);
+    }
+
+    let records = load_records(out, shard_jobs.iter().copied());
+    let ok = records.iter().filter(|(_, r)| r.is_ok()).count();
+    let results_path = out.join("results.parquet");
+    write_results(&results_path, &records)?;
+    let summary = RunSummary {
+        planned: plan.jobs.len(),
+        in_shard: shard_jobs.len(),
+        skipped,
+        ran: ran.into_inner(),
+        ok,
+        failed: records.len() - ok,
+        unfinished: shard_jobs.len() - records.len(),
+        cancelled: opts.cancel.load(Ordering::SeqCst),
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        job_time_s_total: records.iter().map(|(_, r)| r.wall_time_s).sum(),
+        results_path,
+    };
+    let manifest = Manifest {
+        rubscan_version: env!("CARGO_PKG_VERSION").into(),
+        sweep: spec.name.clone(),
+        spec: spec.clone(),
+        shard: opts.shard,
+        merged_from: Vec::new(),
+        threads: opts.threads,
+        steps_per_job: plan.steps_per_job,
+        total_steps: plan.total_steps,
+        complete: summary.unfinished == 0,
+        summary: summary.clone(),
+        started_unix_s,
+    };
+    write_json_atomic(&out.join("manifest.json"), &manifest)
+        .context("cannot write manifest.json")?;
+    Ok(summary)
+}
+
+/// Reads `<dir>/manifest.json`.
+pub fn read_manifest(dir: &Path) -> Result<Manifest> {
+    let path = dir.join("manifest.json");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("malformed {}", path.display()))
+}
+
+/// Merges the outputs of shard runs (each a [`run_sweep`] output directory of the same
+/// spec) into `out_dir`: job records are copied, and `results.parquet` / `manifest.json`
+/// are written for the whole plan, identical to what a single unsharded run writes.
+/// Planned jobs found in no shard are listed in the summary (and the manifest is
+/// marked incomplete); they do not make the merge fail.
+pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
+    let started_unix_s = now_unix_s();
+    let t0 = Instant::now();
+    let Some(first) = shard_dirs.first() else {
+        bail!("merge: no shard directory given")
+    };
+    let manifest = read_manifest(first)?;
+    let spec_json = canonical_json(&serde_json::to_value(&manifest.spec)?);
+    for d in &shard_dirs[1..] {
+        let m = read_manifest(d)?;
+        if canonical_json(&serde_json::to_value(&m.spec)?) != spec_json {
+            bail!(
+                "merge: {} was produced by a different spec than {}",
+                d.display(),
+                first.display()
+            );
+        }
+    }
+    let plan = plan(&manifest.spec).map_err(|e| anyhow!(e))?;
+    std::fs::create_dir_all(checkpoint::jobs_dir(out_dir))
+        .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
+    let mut records = Vec::new();
+    let mut missing = Vec::new();
+    for job in &plan.jobs {
+        let found = shard_dirs
+            .iter()
+            .find_map(|d| read_record(d, &job.id).ok().flatten());
+        match found {
+            Some(mut rec) => {
+                write_record(out_dir, &rec)
+                    .with_context(|| format!("cannot write record of job {}", job.id))?;
+                rec.params = job.params;
+                records.push((job.index, rec));
+            }
+            None => missing.push(job.id.clone()),
+        }
+    }
+    let results_path = out_dir.join("results.parquet");
+    write_results(&results_path, &records)?;
+    let ok = records.iter().filter(|(_, r)| r.is_ok()).count();
+    let summary = RunSummary {
+        planned: plan.jobs.len(),
+        in_shard: plan.jobs.len(),
+        skipped: records.len(),
+        ran: 0,
+        ok,
+        failed: records.len() - ok,
+        unfinished: missing.len(),
+        cancelled: false,
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        job_time_s_total: records.iter().map(|(_, r)| r.wall_time_s).sum(),
+        results_path: results_path.clone(),
+    };
+    let out_manifest = Manifest {
+        rubscan_version: env!("CARGO_PKG_VERSION").into(),
+        sweep: manifest.sweep.clone(),
+        spec: manifest.spec.clone(),
+        shard: None,
+        merged_from: shard_dirs.to_vec(),
+        threads: 0,
+        steps_per_job: plan.steps_per_job,
+        total_steps: plan.total_steps,
+        complete: missing.is_empty(),
+        summary,
+        started_unix_s,
+    };
+    write_json_atomic(&out_dir.join("manifest.json"), &out_manifest)
+        .context("cannot write manifest.json")?;
+    Ok(MergeSummary {
+        planned: plan.jobs.len(),
+        found: records.len(),
+        missing,
+        results_path,
+    })
+}
