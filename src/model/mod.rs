@@ -1,4 +1,6 @@
 //! Model building: finite elements, built-in parametric geometry, cyclic symmetry,
 //! Craig–Bampton reduction and the reduced-order model (ROM) type.
 
+pub mod fe;
+pub mod mesh;
 pub mod rom;
