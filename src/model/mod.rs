@@ -2,5 +2,7 @@
 //! Craig–Bampton reduction and the reduced-order model (ROM) type.
 
 pub mod cyclic;
+pub mod fe;
+pub mod mesh;
 pub mod reduction;
 pub mod rom;
