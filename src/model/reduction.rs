@@ -20,6 +20,8 @@
 //! iteration on that factor otherwise. The nodal diameters are processed in parallel (rayon).
 
 use crate::model::cyclic::{CyclicDofMap, CyclicError, SectorTopology, is_real_harmonic};
+use crate::model::fe::SectorMatrices;
+use crate::model::mesh::SectorMesh;
 use crate::model::rom::{
     Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData, RomError,
 };
@@ -139,6 +141,30 @@ pub struct HarmonicReduction {
     pub modal: ModalData,
     /// Frequencies (Hz) of the kept fixed-interface modes, ascending.
     pub fixed_interface_hz: Vec<f64>,
+}
+
+/// Reduces a built-in sector mesh and its assembled matrices to a [`CyclicRom`]
+/// (cyclic Craig–Bampton, DESIGN §2.2); see [`reduce_sector_model`].
+pub fn reduce_cyclic(
+    mesh: &SectorMesh,
+    mats: &SectorMatrices,
+    opts: &ReductionOptions,
+) -> Result<CyclicRom, ReductionError> {
+    let model = SectorModel {
+        topology: SectorTopology {
+            n_sectors: mesh.n_sectors,
+            n_nodes: mesh.nodes.len(),
+            left_nodes: &mesh.left_nodes,
+            right_nodes: &mesh.right_nodes,
+            clamped_nodes: &mesh.clamped_nodes,
+        },
+        nodes: &mesh.nodes,
+        contact_nodes: &mesh.contact_nodes,
+        stiffness: &mats.stiffness,
+        mass: &mats.mass,
+        centrifugal: mats.centrifugal.as_ref(),
+    };
+    reduce_sector_model(&model, opts)
 }
 
 /// Reduces a cyclic sector FE model to a [`CyclicRom`] by cyclic Craig–Bampton (DESIGN §2.2).
