@@ -859,4 +859,84 @@ pub(crate) mod tests {
         println!("Southwell coefficient: FE {s:.5}, beam theory 1.1933");
         assert!((s - 1.1933).abs() < 0.01 * 1.1933, "S = {s}");
     }
+
+    #[test]
+    fn nd0_prestress_of_a_rotating_annular_disk_matches_lame_solution() {
+        // Thin annular disk (plane stress) clamped at the inner radius a, free at b, spinning about
+        // z: u(r) = A r + B/r − (1−ν²) ρ Ω² r³ / (8E) with u(a) = 0 and σ_r(b) = 0 (per unit Ω²).
+        let (a, b, h, n_sec) = (0.02, 0.10, 0.002, 12usize);
+        let mat = Material::STEEL;
+        let alpha = 2.0 * std::f64::consts::PI / n_sec as f64;
+        let mut builder = MeshBuilder::new(1e-12);
+        let blk = builder.add_block([10, 2, 1], |[s, t, u]| {
+            let (r, th) = (a + (b - a) * s, alpha * t);
+            [r * th.cos(), r * th.sin(), h * (u - 0.5)]
+        });
+        let [d0, d1, d2] = blk.dims;
+        let mut mesh = SectorMesh {
+            n_sectors: n_sec,
+            nodes: builder.nodes,
+            elements: builder.elements,
+            left_nodes: vec![],
+            right_nodes: vec![],
+            contact_nodes: vec![],
+            clamped_nodes: vec![],
+            material: mat,
+        };
+        for i in 0..d0 {
+            for k in 0..d2 {
+                if let (Some(l), Some(r)) = (blk.get(i, 0, k), blk.get(i, d1 - 1, k)) {
+                    mesh.left_nodes.push(l);
+                    mesh.right_nodes.push(r);
+                }
+            }
+        }
+        for j in 0..d1 {
+            for k in 0..d2 {
+                mesh.clamped_nodes.extend(blk.get(0, j, k));
+            }
+        }
+        let mats = assemble_sector(&mesh, false).unwrap();
+        let mut f = vec![0.0; mesh.n_dofs()];
+        for (e, conn) in mesh.elements.iter().enumerate() {
+            let gps = gauss_points(&element_coords(&mesh, conn), e).unwrap();
+            let fe = element_centrifugal_load(&gps, mat.density);
+            for a in 0..20 {
+                for i in 0..3 {
+                    f[3 * conn[a] + i] += fe[3 * a + i];
+                }
+            }
+        }
+        let u = centrifugal_displacement(&mesh, &mats.stiffness, &f).unwrap();
+        let (e, nu, rho) = (mat.young, mat.poisson, mat.density);
+        let c = (1.0 - nu * nu) * rho / (8.0 * e);
+        let (up, dup) = (|r: f64| -c * r.powi(3), |r: f64| -3.0 * c * r * r);
+        // [a, 1/a; (1+ν), −(1−ν)/b²] [A; B] = [−u_p(a); −u_p'(b) − ν u_p(b)/b]
+        let (m11, m12, m21, m22) = (a, 1.0 / a, 1.0 + nu, -(1.0 - nu) / (b * b));
+        let (r1, r2) = (-up(a), -dup(b) - nu * up(b) / b);
+        let det = m11 * m22 - m12 * m21;
+        let (ca, cb) = ((r1 * m22 - m12 * r2) / det, (m11 * r2 - m21 * r1) / det);
+        let exact = |r: f64| ca * r + cb / r + up(r);
+        let mut worst = 0.0f64;
+        for i in (2..d0).step_by(2) {
+            for j in [0, d1 - 1] {
+                let nd = blk.get(i, j, 0).unwrap();
+                let p = mesh.nodes[nd];
+                let r = p[0].hypot(p[1]);
+                let ur = (u[3 * nd] * p[0] + u[3 * nd + 1] * p[1]) / r;
+                let ut = (-u[3 * nd] * p[1] + u[3 * nd + 1] * p[0]) / r;
+                worst = worst.max((ur - exact(r)).abs() / exact(b));
+                assert!(
+                    (ur - exact(r)).abs() < 5e-3 * exact(b),
+                    "r = {r}: u_r {ur:e} vs {:e}",
+                    exact(r)
+                );
+                assert!(ut.abs() < 1e-9 * exact(b), "no hoop displacement at ND 0");
+            }
+        }
+        println!(
+            "rotating disk: u_r(b) = {:.6e} m per (rad/s)², max |error| / u_r(b) = {worst:.2e}",
+            exact(b)
+        );
+    }
 }
