@@ -409,8 +409,9 @@ impl Meridian {
 /// Defaults (small helicopter-turboshaft centrifugal compressor, SI units): N = 100 sectors,
 /// M = 5 contact nodes, shroud r_in = 0.075 m → r_out = 0.120 m over L = 0.055 m, wall
 /// thickness 3 mm, steel (E = 200 GPa, ν = 0.3, ρ = 7850 kg/m³), 8 × 1 × 1 elements
-/// (meridian × circumference × thickness): 104 nodes, 312 DOFs per sector. The inlet end face
-/// (φ = 0, the flange) is clamped.
+/// (meridian × circumference × thickness), plus a straight axial inlet duct of 15 mm (2 elements)
+/// upstream of the leading edge whose upstream end face (the flange) is clamped: the contact
+/// nodes, leading edge included, are then free to move, as on a real shroud.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CasingGeometry {
@@ -428,6 +429,11 @@ pub struct CasingGeometry {
     pub elements_circumferential: usize,
     /// Elements through the wall thickness.
     pub elements_thickness: usize,
+    /// Length of the axial inlet duct upstream of the leading edge (z < 0), m; its upstream end
+    /// face is the clamped flange.
+    pub inlet_length: f64,
+    /// Elements along the inlet duct.
+    pub elements_inlet: usize,
     /// Casing material.
     pub material: Material,
 }
@@ -449,6 +455,8 @@ impl Default for CasingGeometry {
             elements_meridian: 8,
             elements_circumferential: 1,
             elements_thickness: 1,
+            inlet_length: 0.015,
+            elements_inlet: 2,
             material: Material::STEEL,
         }
     }
@@ -491,6 +499,8 @@ impl CasingGeometry {
         }
         check_count("elements_circumferential", self.elements_circumferential, 1)?;
         check_count("elements_thickness", self.elements_thickness, 1)?;
+        check_len("inlet_length", self.inlet_length)?;
+        check_count("elements_inlet", self.elements_inlet, 1)?;
         // The wall must not fold over itself where the meridian curves towards the flow side.
         let kmin = min_radius_of_curvature(&self.shroud);
         if self.thickness >= 0.5 * kmin {
@@ -524,21 +534,30 @@ impl CasingGeometry {
             let th = s1 * alpha;
             [r * th.cos(), r * th.sin(), z]
         });
-        let [d0, d1, d2] = blk.dims;
+        let (r_in, len) = (sh.r_in, self.inlet_length);
+        let inlet = b.add_block([self.elements_inlet, n[1], n[2]], |[s0, s1, s2]| {
+            let (r, z) = (r_in + s2 * t, -len * (1.0 - s0));
+            let th = s1 * alpha;
+            [r * th.cos(), r * th.sin(), z]
+        });
+        let [_, d1, d2] = blk.dims;
         let mut left = Vec::new();
         let mut right = Vec::new();
-        let mut clamped = Vec::new();
-        for i in 0..d0 {
-            for k in 0..d2 {
-                if let (Some(l), Some(r)) = (blk.get(i, 0, k), blk.get(i, d1 - 1, k)) {
-                    left.push(l);
-                    right.push(r);
+        // The duct's downstream face is the main block's upstream face: skip it once.
+        for (block, first) in [(&inlet, 0), (&blk, 1)] {
+            for i in first..block.dims[0] {
+                for k in 0..d2 {
+                    if let (Some(l), Some(r)) = (block.get(i, 0, k), block.get(i, d1 - 1, k)) {
+                        left.push(l);
+                        right.push(r);
+                    }
                 }
             }
         }
+        let mut clamped = Vec::new();
         for j in 0..d1 {
             for k in 0..d2 {
-                clamped.extend(blk.get(0, j, k));
+                clamped.extend(inlet.get(0, j, k));
             }
         }
         let step = 2 * self.elements_meridian / (self.contact_nodes - 1);
@@ -930,7 +949,7 @@ mod tests {
             imp.nodes.len(),
             imp.n_dofs()
         );
-        assert_eq!(casing.n_dofs(), 312);
+        assert_eq!(casing.n_dofs(), 384);
         assert!(imp.n_dofs() <= 3000);
         assert_eq!(casing.contact_nodes.len(), 5);
         assert_eq!(imp.contact_nodes.len(), 5);
@@ -1089,6 +1108,8 @@ mod tests {
             v += if i % 2 == 1 { 4.0 } else { 2.0 } * inner(i as f64 * hph);
         }
         v *= hph / 3.0 * mesh.sector_angle();
+        // Inlet duct: an annular sector of radii r_in, r_in + t and length inlet_length.
+        v += 0.5 * mesh.sector_angle() * ((s.r_in + t).powi(2) - s.r_in.powi(2)) * g.inlet_length;
         let expect = g.material.density * v;
         println!(
             "casing sector mass: FE {fe_mass:.9e} kg, analytic {expect:.9e} kg, rel. error {:.2e}",

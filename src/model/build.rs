@@ -1,0 +1,204 @@
+//! Model specs: from geometric parameters to reduced-order models (mesh → FE matrices →
+//! cyclic Craig–Bampton). Pure numerics; the on-disk cache lives in [`crate::app`].
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::model::fe::{FeError, assemble_sector};
+use crate::model::mesh::{CasingGeometry, ImpellerGeometry, MeshError};
+use crate::model::reduction::{ReductionError, ReductionOptions, reduce_cyclic};
+use crate::model::rom::{Component, CyclicRom, Damping};
+
+/// Everything that can stop a model build; the message names the stage and the cause.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("{component} geometry: {source}")]
+    Mesh {
+        component: &'static str,
+        source: MeshError,
+    },
+    #[error("{component} finite elements: {source}")]
+    Fe {
+        component: &'static str,
+        source: FeError,
+    },
+    #[error("{component} reduction: {source}")]
+    Reduction {
+        component: &'static str,
+        source: ReductionError,
+    },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// Build parameters of the casing ROM.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CasingSpec {
+    /// Parametric geometry (defaults: [`CasingGeometry::default`]).
+    pub geometry: CasingGeometry,
+    /// Fixed-interface modes per nodal diameter (paper: 10).
+    pub modes_per_diameter: usize,
+    /// Damping stored in the ROM.
+    pub damping: Damping,
+}
+
+impl Default for CasingSpec {
+    fn default() -> Self {
+        Self {
+            geometry: CasingGeometry::default(),
+            modes_per_diameter: 10,
+            damping: Damping::default(),
+        }
+    }
+}
+
+/// Build parameters of the impeller ROM.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImpellerSpec {
+    /// Parametric geometry (defaults: [`ImpellerGeometry::default`]).
+    pub geometry: ImpellerGeometry,
+    /// Fixed-interface modes per nodal diameter (paper: 10).
+    pub modes_per_diameter: usize,
+    /// Rotation speeds (rad/s) of the stored modal data (Campbell diagram, interaction criterion).
+    pub omega_grid_rad_s: Vec<f64>,
+    /// Damping stored in the ROM.
+    pub damping: Damping,
+}
+
+impl Default for ImpellerSpec {
+    fn default() -> Self {
+        Self {
+            geometry: ImpellerGeometry::default(),
+            modes_per_diameter: 10,
+            // 0 to 6000 rad/s (57,000 rpm) brackets the speed range of a small turboshaft compressor.
+            omega_grid_rad_s: (0..=12).map(|i| 500.0 * i as f64).collect(),
+            damping: Damping::default(),
+        }
+    }
+}
+
+/// A model spec file: both components, each with defaults.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModelSpec {
+    pub impeller: ImpellerSpec,
+    pub casing: CasingSpec,
+}
+
+impl ModelSpec {
+    /// Parses a model spec from JSON; unknown fields are errors.
+    pub fn from_json(value: Value) -> Result<Self, BuildError> {
+        serde_json::from_value(value).map_err(|e| BuildError::Invalid(format!("model spec: {e}")))
+    }
+}
+
+fn check_modes(component: &'static str, n: usize) -> Result<(), BuildError> {
+    if n == 0 {
+        return Err(BuildError::Invalid(format!(
+            "{component}.modes_per_diameter must be at least 1"
+        )));
+    }
+    Ok(())
+}
+
+/// Builds the casing ROM: mesh, FE assembly, cyclic Craig–Bampton.
+pub fn build_casing(spec: &CasingSpec) -> Result<CyclicRom, BuildError> {
+    const C: &str = "casing";
+    check_modes(C, spec.modes_per_diameter)?;
+    let mesh = spec.geometry.build().map_err(|source| BuildError::Mesh {
+        component: C,
+        source,
+    })?;
+    let mats = assemble_sector(&mesh, false).map_err(|source| BuildError::Fe {
+        component: C,
+        source,
+    })?;
+    let opts = ReductionOptions {
+        modes_per_diameter: spec.modes_per_diameter,
+        omega_grid: vec![0.0],
+        component: Component::Casing,
+        name: "built-in casing".into(),
+        damping: spec.damping,
+        ..ReductionOptions::default()
+    };
+    let mut rom = reduce_cyclic(&mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
+        component: C,
+        source,
+    })?;
+    rom.provenance = serde_json::json!({ "builtin": spec, "rubscan": env!("CARGO_PKG_VERSION") });
+    Ok(rom)
+}
+
+/// Builds the impeller ROM with centrifugal stiffening `K(Ω) = K0 + Ω² K1`.
+pub fn build_impeller(spec: &ImpellerSpec) -> Result<CyclicRom, BuildError> {
+    const C: &str = "impeller";
+    check_modes(C, spec.modes_per_diameter)?;
+    if spec
+        .omega_grid_rad_s
+        .iter()
+        .any(|w| !w.is_finite() || *w < 0.0)
+    {
+        return Err(BuildError::Invalid(
+            "impeller.omega_grid_rad_s: speeds must be finite and ≥ 0".into(),
+        ));
+    }
+    let mesh = spec.geometry.build().map_err(|source| BuildError::Mesh {
+        component: C,
+        source,
+    })?;
+    let mats = assemble_sector(&mesh, true).map_err(|source| BuildError::Fe {
+        component: C,
+        source,
+    })?;
+    let opts = ReductionOptions {
+        modes_per_diameter: spec.modes_per_diameter,
+        omega_grid: spec.omega_grid_rad_s.clone(),
+        component: Component::Impeller,
+        name: "built-in impeller".into(),
+        damping: spec.damping,
+        ..ReductionOptions::default()
+    };
+    let mut rom = reduce_cyclic(&mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
+        component: C,
+        source,
+    })?;
+    rom.provenance = serde_json::json!({ "builtin": spec, "rubscan": env!("CARGO_PKG_VERSION") });
+    Ok(rom)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spec_rejects_unknown_fields_and_zero_modes() {
+        let err = ModelSpec::from_json(serde_json::json!({"casing": {"modez": 3}}))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("modez"), "{err}");
+        let spec = CasingSpec {
+            modes_per_diameter: 0,
+            ..CasingSpec::default()
+        };
+        assert!(
+            build_casing(&spec)
+                .unwrap_err()
+                .to_string()
+                .contains("modes_per_diameter")
+        );
+    }
+
+    #[test]
+    fn small_casing_builds_and_validates() {
+        let mut spec = CasingSpec::default();
+        spec.geometry.n_sectors = 8;
+        spec.modes_per_diameter = 3;
+        let rom = build_casing(&spec).unwrap();
+        assert_eq!(rom.n_sectors, 8);
+        assert_eq!(rom.harmonics.len(), 5);
+        assert_eq!(rom.n_contact(), spec.geometry.contact_nodes);
+        assert_eq!(rom.validate(), Ok(()));
+    }
+}
