@@ -1,1 +1,15 @@
-//! dynamics stage.
+//! Dynamics stage: explicit central-difference time integration of the impeller and the
+//! casing with forward-increment Lagrange-multiplier contact and Coulomb friction
+//! (Carpenter, Taylor & Katona 1991; Batailly & Legrand 2015 §3).
+//!
+//! - [`numerics`]: time step, Newton tolerance, kernel choice, decimation;
+//! - [`structure`]: a cyclic ROM frozen at Ω (eigenpairs, damping, stability limit, assembly);
+//! - [`kernel`]: the two interchangeable linear-algebra kernels ([`modal`] fast, [`dense`] reference);
+//! - [`contact_solve`]: contact rows, `W = G A⁻¹ Fᵀ`, active-set solve;
+//! - [`scenario`]: the case definition (speed, friction, casing load, clearances);
+//! - [`simulate`]: the time loop; [`probes`]: the recorded output;
+//! - [`synthetic`]: synthetic ROMs (test and benchmark fixture).
+
+pub mod numerics;
+pub mod structure;
+pub mod synthetic;
