@@ -10,6 +10,9 @@
 //! - [`simulate`]: the time loop; [`probes`]: the recorded output;
 //! - [`synthetic`]: synthetic ROMs (test and benchmark fixture).
 
+pub mod dense;
+pub mod kernel;
+pub mod modal;
 pub mod numerics;
 pub mod structure;
 pub mod synthetic;
