@@ -1,1 +1,11 @@
-//! contact stage.
+//! Contact geometry: the casing B-spline contact surface (paper §2.2) and the
+//! closest-point projection of blade-tip nodes onto it (paper §3.1).
+
+pub mod projection;
+pub mod spline;
+
+pub use projection::{
+    DEFAULT_EPS_NR, NodeProjectionError, Projection, ProjectionError, closest_point,
+    friction_direction, project_nodes,
+};
+pub use spline::{CasingSpline, PatchEval, SplineError, SurfaceParam};

@@ -1,0 +1,655 @@
+//! Closest point of a blade-tip node on the casing spline (paper §3.1, Fig. 6),
+//! outward normal and gap (eq. 14), friction direction (eq. 15).
+//!
+//! The search runs in *global* spline parameters `U = i + u ∈ [0, N)`
+//! (periodic) and `V = j + v ∈ [0, M−1]`: the spline is C² across patch seams,
+//! so a Newton step that leaves `[0, 1]²` simply continues on the neighbouring
+//! patch with unchanged derivatives — convergence is not affected. `U` wraps
+//! around the closing line (patch `N−1` ↔ `0`); `V` is clamped at the free
+//! edges, where the problem becomes a bound-constrained minimisation solved
+//! by a projected Newton step (the closest point then lies on the boundary
+//! curve `v = 0` of row 0 or `v = 1` of row `M−2`).
+
+use super::spline::{CasingSpline, SplineError, SurfaceParam};
+use nalgebra::Vector3;
+use thiserror::Error;
+
+/// Default Newton–Raphson stop criterion ε_NR (paper §3.1).
+pub const DEFAULT_EPS_NR: f64 = 1e-5;
+
+/// Newton iterations allowed before [`ProjectionError::NotConverged`].
+pub const MAX_NEWTON_ITERATIONS: usize = 50;
+
+/// Relative threshold of [`friction_direction`]: below `NO_SLIP_REL_TOL · |Δ|`
+/// the tangential increment is treated as zero.
+pub const NO_SLIP_REL_TOL: f64 = 1e-9;
+
+/// Result of [`closest_point`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    /// Patch and local coordinates of the closest point (the warm start of the next step).
+    pub param: SurfaceParam,
+    /// Closest point `S` on the spline, m.
+    pub point: Vector3<f64>,
+    /// Unit normal at `S` (eq. 14), pointing from the casing toward the rotation
+    /// axis when [`CasingSpline::normal_sign`] is set for the model.
+    pub normal: Vector3<f64>,
+    /// Signed gap `d = n · (x − S)`, m; negative means penetration.
+    pub gap: f64,
+    /// Newton iterations used (for profiling counters).
+    pub iterations: usize,
+}
+
+impl Default for Projection {
+    fn default() -> Self {
+        Projection {
+            param: SurfaceParam {
+                i: 0,
+                j: 0,
+                u: 0.5,
+                v: 0.5,
+            },
+            point: Vector3::zeros(),
+            normal: Vector3::zeros(),
+            gap: f64::INFINITY,
+            iterations: 0,
+        }
+    }
+}
+
+/// Why a projection failed. The batch [`project_nodes`] adds the node index.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ProjectionError {
+    /// The point to project has a NaN or infinite coordinate.
+    #[error("point {x:?} to project is not finite")]
+    NonFinitePoint { x: [f64; 3] },
+    /// ε_NR must be positive and finite.
+    #[error("eps_nr = {0}: the Newton stop criterion must be positive and finite")]
+    BadTolerance(f64),
+    /// The warm start is not a valid surface parameter.
+    #[error("warm start {0:?} is not a valid patch parameter")]
+    BadWarmStart(SurfaceParam),
+    /// Control points of the wrong length (or another spline-level error).
+    #[error("spline: {0}")]
+    Spline(#[from] SplineError),
+    /// `S_u` and `S_v` are parallel (or not finite): the surface is degenerate there.
+    #[error("degenerate surface at {param:?}: S_u and S_v are parallel or not finite")]
+    DegenerateSurface { param: SurfaceParam },
+    /// Newton–Raphson did not reach ε_NR within [`MAX_NEWTON_ITERATIONS`].
+    #[error(
+        "Newton-Raphson did not converge in {iterations} iterations from point {x:?} (last update {last_step:e} patch lengths at {param:?})"
+    )]
+    NotConverged {
+        x: [f64; 3],
+        iterations: usize,
+        last_step: f64,
+        param: SurfaceParam,
+    },
+}
+
+/// A projection failure of casing-contact query node `node` (index into the slice given to [`project_nodes`]).
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("closest point of node {node}: {source}")]
+pub struct NodeProjectionError {
+    pub node: usize,
+    #[source]
+    pub source: ProjectionError,
+}
+
+/// Closest point on the casing spline of `x` (m), by Newton–Raphson on `(u, v)`
+/// minimising `½|x − S(u, v)|²` (paper §3.1, Fig. 6).
+///
+/// - `q`: control points from [`CasingSpline::control_points`].
+/// - `warm_start`: the previous step's parameter; `None` starts from the centre
+///   of the patch, adjacent to the data point nearest to `x`, whose four corner
+///   data points are nearest to `x` (sum of squared distances).
+/// - `eps_nr`: stop when `max(|ΔU|, |ΔV|) ≤ eps_nr`, the update of the global
+///   parameters actually taken (after clamping). A patch has unit extent in
+///   `U` and `V`, so this is the update relative to the patch size (node spacing).
+///
+/// Each iteration uses the exact Hessian `[S_a·S_b − S_ab·(x − S)]`, or its
+/// Gauss–Newton part `[S_a·S_b]` where the exact one is not positive definite
+/// (far from the surface); steps are capped at one patch. The returned normal
+/// is `normal_sign · (−S_u × S_v)/|S_u × S_v|` (eq. 14) and the gap
+/// `d = n · (x − S)`; on a free edge the closest point lies on the boundary
+/// curve and `d` is still measured along the surface normal there.
+pub fn closest_point(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    x: Vector3<f64>,
+    warm_start: Option<SurfaceParam>,
+    eps_nr: f64,
+) -> Result<Projection, ProjectionError> {
+    if !(x.x.is_finite() && x.y.is_finite() && x.z.is_finite()) {
+        return Err(ProjectionError::NonFinitePoint { x: x.into() });
+    }
+    if !(eps_nr > 0.0 && eps_nr.is_finite()) {
+        return Err(ProjectionError::BadTolerance(eps_nr));
+    }
+    if q.len() != spline.n_control() {
+        return Err(SplineError::LengthMismatch {
+            what: "control points",
+            expected: spline.n_control(),
+            got: q.len(),
+        }
+        .into());
+    }
+    let n = spline.n_sectors() as f64;
+    let v_max = (spline.nodes_per_sector() - 1) as f64;
+    let start = match warm_start {
+        Some(p) => {
+            let ok = p.i < spline.n_sectors()
+                && p.j + 1 < spline.nodes_per_sector()
+                && (0.0..=1.0).contains(&p.u)
+                && (0.0..=1.0).contains(&p.v);
+            if !ok {
+                return Err(ProjectionError::BadWarmStart(p));
+            }
+            p
+        }
+        None => initial_guess(spline, q, &x),
+    };
+    let (mut gu, mut gv) = (start.i as f64 + start.u, start.j as f64 + start.v);
+    let mut last_step = f64::INFINITY;
+    for it in 1..=MAX_NEWTON_ITERATIONS {
+        let p = to_param(spline, gu, gv);
+        let e = spline.eval_unchecked(q, p.i, p.j, p.u, p.v);
+        let r = x - e.s;
+        let (g_u, g_v) = (-e.su.dot(&r), -e.sv.dot(&r));
+        let (a_uu, a_uv, a_vv) = (e.su.dot(&e.su), e.su.dot(&e.sv), e.sv.dot(&e.sv));
+        let (mut h_uu, mut h_uv, mut h_vv) = (
+            a_uu - e.suu.dot(&r),
+            a_uv - e.suv.dot(&r),
+            a_vv - e.svv.dot(&r),
+        );
+        let gauss_det = a_uu * a_vv - a_uv * a_uv;
+        // Written positively so that NaN (non-finite control points) is rejected too.
+        let regular = gauss_det > 1e-14 * a_uu * a_vv;
+        if !regular {
+            return Err(ProjectionError::DegenerateSurface { param: p });
+        }
+        let newton_pd = h_uu > 0.0 && h_uu * h_vv - h_uv * h_uv > 1e-10 * a_uu * a_vv;
+        if !newton_pd {
+            (h_uu, h_uv, h_vv) = (a_uu, a_uv, a_vv);
+        }
+        // Projected Newton at the free edges: a bound stays active while the
+        // gradient pushes outward, and the step is then taken along u only.
+        let at_bound = (gv <= 0.0 && g_v > 0.0) || (gv >= v_max && g_v < 0.0);
+        let (mut du, mut dv) = if at_bound {
+            (-g_u / h_uu, 0.0)
+        } else {
+            let det = h_uu * h_vv - h_uv * h_uv;
+            (
+                (-h_vv * g_u + h_uv * g_v) / det,
+                (h_uv * g_u - h_uu * g_v) / det,
+            )
+        };
+        let len = du.abs().max(dv.abs());
+        if len > 1.0 {
+            du /= len;
+            dv /= len;
+        }
+        let new_gv = (gv + dv).clamp(0.0, v_max);
+        last_step = du.abs().max((new_gv - gv).abs());
+        gu = (gu + du).rem_euclid(n);
+        gv = new_gv;
+        if last_step <= eps_nr {
+            let p = to_param(spline, gu, gv);
+            let e = spline.eval_unchecked(q, p.i, p.j, p.u, p.v);
+            let raw = -e.su.cross(&e.sv);
+            let norm = raw.norm();
+            let usable = norm > 0.0 && norm.is_finite();
+            if !usable {
+                return Err(ProjectionError::DegenerateSurface { param: p });
+            }
+            let normal = raw * (spline.normal_sign() / norm);
+            return Ok(Projection {
+                param: p,
+                point: e.s,
+                normal,
+                gap: normal.dot(&(x - e.s)),
+                iterations: it,
+            });
+        }
+    }
+    Err(ProjectionError::NotConverged {
+        x: x.into(),
+        iterations: MAX_NEWTON_ITERATIONS,
+        last_step,
+        param: to_param(spline, gu, gv),
+    })
+}
+
+/// Projects every point of `xs` (e.g. all blade-tip nodes) with [`closest_point`],
+/// warm-starting node `k` from `warm[k]` and storing its new parameter there;
+/// results go to `out[k]`. Stops at the first failure, naming the node.
+pub fn project_nodes(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    xs: &[Vector3<f64>],
+    warm: &mut [Option<SurfaceParam>],
+    eps_nr: f64,
+    out: &mut [Projection],
+) -> Result<(), NodeProjectionError> {
+    let len_err = |what, expected, got| NodeProjectionError {
+        node: 0,
+        source: SplineError::LengthMismatch {
+            what,
+            expected,
+            got,
+        }
+        .into(),
+    };
+    if warm.len() != xs.len() {
+        return Err(len_err("warm starts", xs.len(), warm.len()));
+    }
+    if out.len() != xs.len() {
+        return Err(len_err("projections", xs.len(), out.len()));
+    }
+    for (node, ((x, w), o)) in xs
+        .iter()
+        .zip(warm.iter_mut())
+        .zip(out.iter_mut())
+        .enumerate()
+    {
+        let p = closest_point(spline, q, *x, *w, eps_nr)
+            .map_err(|source| NodeProjectionError { node, source })?;
+        *w = Some(p.param);
+        *o = p;
+    }
+    Ok(())
+}
+
+/// Cold-start guess (paper §3.1): centre of the patch, among those touching the
+/// data point nearest to `x`, whose four corner data points are nearest to `x`.
+/// Costs `O(N·M)`; used only without a warm start.
+pub fn initial_guess(spline: &CasingSpline, q: &[Vector3<f64>], x: &Vector3<f64>) -> SurfaceParam {
+    let (n, m) = (spline.n_sectors(), spline.nodes_per_sector());
+    let dist2 = |i: usize, j: usize| (data_point(spline, q, i % n, j) - x).norm_squared();
+    let mut best = (f64::INFINITY, 0, 0);
+    for i in 0..n {
+        for j in 0..m {
+            let d = dist2(i, j);
+            if d < best.0 {
+                best = (d, i, j);
+            }
+        }
+    }
+    let (_, bi, bj) = best;
+    let mut choice = (f64::INFINITY, bi, bj.min(m - 2));
+    for pi in [(bi + n - 1) % n, bi] {
+        for pj in [bj.saturating_sub(1), bj.min(m - 2)] {
+            let s = dist2(pi, pj) + dist2(pi + 1, pj) + dist2(pi, pj + 1) + dist2(pi + 1, pj + 1);
+            if s < choice.0 {
+                choice = (s, pi, pj);
+            }
+        }
+    }
+    SurfaceParam {
+        i: choice.1,
+        j: choice.2,
+        u: 0.5,
+        v: 0.5,
+    }
+}
+
+/// Data point `P(i, j)` (eq. 8) recovered from the control points: the
+/// `(1, 4, 1) ⊗ (1, 4, 1) / 36` stencil centred on `Q[i+1][j+1]`.
+fn data_point(spline: &CasingSpline, q: &[Vector3<f64>], i: usize, j: usize) -> Vector3<f64> {
+    const W: [f64; 3] = [1.0, 4.0, 1.0];
+    let mut p = Vector3::zeros();
+    for (a, wa) in W.iter().enumerate() {
+        for (b, wb) in W.iter().enumerate() {
+            p += q[spline.control_index(i + a, j + b)] * (wa * wb);
+        }
+    }
+    p / 36.0
+}
+
+/// Patch parameter of global coordinates `U ∈ [0, N]`, `V ∈ [0, M−1]`.
+#[inline]
+fn to_param(spline: &CasingSpline, gu: f64, gv: f64) -> SurfaceParam {
+    let i = (gu.floor().max(0.0) as usize).min(spline.n_sectors() - 1);
+    let j = (gv.floor().max(0.0) as usize).min(spline.nodes_per_sector() - 2);
+    SurfaceParam {
+        i,
+        j,
+        u: (gu - i as f64).clamp(0.0, 1.0),
+        v: (gv - j as f64).clamp(0.0, 1.0),
+    }
+}
+
+/// Unit friction direction of eq. (15): `t = n × (n × Δ)` normalised, i.e. minus
+/// the unit tangential part of the increment `Δ` (the node's predicted slip);
+/// `n` must be a unit vector. Returns `None` (no slip: no friction direction,
+/// the caller applies no tangential force) when `|Δ_t| ≤ NO_SLIP_REL_TOL · |Δ|`,
+/// when `Δ = 0`, or when the input is not finite.
+pub fn friction_direction(n: &Vector3<f64>, increment: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let t = n.cross(&n.cross(increment));
+    let tn = t.norm();
+    let dn = increment.norm();
+    if !(tn.is_finite() && dn.is_finite()) || tn <= NO_SLIP_REL_TOL * dn || tn == 0.0 {
+        return None;
+    }
+    Some(t / tn)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    /// Nodes on a surface of revolution (`r(s)`, `z(s)`, `s ∈ [0, 1]` along the meridian).
+    fn revolution_nodes(
+        n: usize,
+        m: usize,
+        r_of: impl Fn(f64) -> f64,
+        z_of: impl Fn(f64) -> f64,
+    ) -> Vec<Vector3<f64>> {
+        let mut nodes = Vec::with_capacity(n * m);
+        for i in 0..n {
+            let th = 2.0 * PI * i as f64 / n as f64;
+            for j in 0..m {
+                let s = j as f64 / (m - 1) as f64;
+                nodes.push(Vector3::new(
+                    r_of(s) * th.cos(),
+                    r_of(s) * th.sin(),
+                    z_of(s),
+                ));
+            }
+        }
+        nodes
+    }
+
+    struct Case {
+        sp: CasingSpline,
+        q: Vec<Vector3<f64>>,
+        nodes: Vec<Vector3<f64>>,
+    }
+
+    fn case(n: usize, m: usize, r_of: impl Fn(f64) -> f64, z_of: impl Fn(f64) -> f64) -> Case {
+        let nodes = revolution_nodes(n, m, r_of, z_of);
+        let mut sp = CasingSpline::new(n, m).unwrap();
+        sp.orient_toward_axis(&nodes).unwrap();
+        let mut q = vec![Vector3::zeros(); sp.n_control()];
+        sp.control_points(&nodes, &mut q).unwrap();
+        Case { sp, q, nodes }
+    }
+
+    fn cylinder() -> Case {
+        case(24, 5, |_| 0.3, |s| 0.1 * s)
+    }
+
+    fn cone() -> Case {
+        case(16, 4, |s| 0.2 + 0.1 * s, |s| 0.1 * s)
+    }
+
+    fn p(i: usize, j: usize, u: f64, v: f64) -> SurfaceParam {
+        SurfaceParam { i, j, u, v }
+    }
+
+    /// Point at signed distance `t` from `S(param)` along the oriented normal: its
+    /// closest point on the spline is `S(param)` (for |t| below the curvature radius).
+    fn offset_point(
+        c: &Case,
+        param: SurfaceParam,
+        t: f64,
+    ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+        let e = c.sp.evaluate(&c.q, &param).unwrap();
+        let nrm = -e.su.cross(&e.sv).normalize() * c.sp.normal_sign();
+        (e.s + t * nrm, e.s, nrm)
+    }
+
+    fn global(sp: &CasingSpline, a: &SurfaceParam) -> (f64, f64) {
+        let _ = sp;
+        (a.i as f64 + a.u, a.j as f64 + a.v)
+    }
+
+    #[test]
+    fn recovers_known_closest_points_on_cylinder_and_cone() {
+        for c in [cylinder(), cone()] {
+            let n = c.sp.n_sectors();
+            let m = c.sp.nodes_per_sector();
+            let targets = [
+                p(0, 0, 0.3, 0.4),
+                p(n - 1, m - 2, 0.77, 0.21),
+                p(n / 2, 1, 0.05, 0.95),
+                p(3, m - 2, 0.5, 0.5),
+            ];
+            for target in targets {
+                for t in [-0.004, 0.0, 0.002, 0.02] {
+                    let (x, s, nrm) = offset_point(&c, target, t);
+                    for warm in [None, Some(p(target.i, target.j, 0.5, 0.5))] {
+                        let pr = closest_point(&c.sp, &c.q, x, warm, DEFAULT_EPS_NR).unwrap();
+                        assert!(
+                            (pr.point - s).norm() < 1e-10,
+                            "{:?} t={t}: {} vs {s}",
+                            target,
+                            pr.point
+                        );
+                        assert!((pr.gap - t).abs() < 1e-10, "gap {} vs {t}", pr.gap);
+                        assert!((pr.normal - nrm).norm() < 1e-9);
+                        let (a, b) = (global(&c.sp, &pr.param), global(&c.sp, &target));
+                        assert!((a.0 - b.0).abs() < 1e-8 && (a.1 - b.1).abs() < 1e-8);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn point_on_a_data_point_projects_onto_it() {
+        let c = cone();
+        let m = c.sp.nodes_per_sector();
+        for &k in &[0, 1, 5, m * 7 + 2, c.nodes.len() - 1] {
+            let x = c.nodes[k];
+            let pr = closest_point(&c.sp, &c.q, x, None, DEFAULT_EPS_NR).unwrap();
+            assert!(
+                (pr.point - x).norm() < 1e-10,
+                "node {k}: {}",
+                (pr.point - x).norm()
+            );
+            assert!(pr.gap.abs() < 1e-10);
+        }
+    }
+
+    #[test]
+    fn warm_start_crosses_patch_seams_and_the_closing_line() {
+        let c = cylinder();
+        let n = c.sp.n_sectors();
+        let cases = [
+            (p(5, 1, 0.5, 0.5), p(6, 2, 0.2, 0.3)), // diagonal neighbour
+            (p(n - 1, 2, 0.9, 0.5), p(0, 2, 0.1, 0.5)), // closing line, forward
+            (p(0, 1, 0.05, 0.5), p(n - 1, 1, 0.8, 0.6)), // closing line, backward
+            (p(n - 1, 0, 0.5, 0.5), p(1, 1, 0.5, 0.5)), // two patches across the closing line
+        ];
+        for (warm, target) in cases {
+            let (x, s, _) = offset_point(&c, target, 0.003);
+            let pr = closest_point(&c.sp, &c.q, x, Some(warm), DEFAULT_EPS_NR).unwrap();
+            assert!(
+                (pr.point - s).norm() < 1e-10,
+                "{warm:?} -> {target:?}: got {:?}",
+                pr.param
+            );
+            assert!(pr.iterations <= 8, "{} iterations", pr.iterations);
+        }
+    }
+
+    #[test]
+    fn beyond_a_free_edge_the_closest_point_is_on_the_boundary_curve() {
+        let c = cone();
+        let m = c.sp.nodes_per_sector();
+        // Past the trailing edge (z > 0.1) and before the leading edge (z < 0).
+        for (target, beyond) in [
+            (p(4, m - 2, 0.3, 1.0), Vector3::new(0.0, 0.0, 0.02)),
+            (p(9, 0, 0.6, 0.0), Vector3::new(0.0, 0.0, -0.02)),
+        ] {
+            let (x0, _, _) = offset_point(&c, target, 0.005);
+            let x = x0 + beyond;
+            let pr = closest_point(&c.sp, &c.q, x, Some(p(target.i, target.j, 0.5, 0.5)), 1e-10)
+                .unwrap();
+            assert_eq!(pr.param.j, target.j);
+            assert_eq!(pr.param.v, target.v, "must sit on the free edge");
+            // KKT: stationary along the edge, the residual points out of the surface across it.
+            let e = c.sp.evaluate(&c.q, &pr.param).unwrap();
+            let r = x - e.s;
+            assert!(r.dot(&e.su).abs() < 1e-12 * r.norm() * e.su.norm());
+            let outward = if target.v == 1.0 { 1.0 } else { -1.0 };
+            assert!(outward * r.dot(&e.sv) > 0.0);
+            // Independent check: brute-force minimum along the boundary curve.
+            let mut best = f64::INFINITY;
+            for k in -2000..=2000 {
+                let gu = target.i as f64 + target.u + k as f64 * 1e-3;
+                let i = gu.floor() as usize;
+                let s =
+                    c.sp.evaluate(&c.q, &p(i, target.j, gu - i as f64, target.v))
+                        .unwrap()
+                        .s;
+                best = best.min((x - s).norm());
+            }
+            assert!((x - pr.point).norm() <= best + 1e-12);
+        }
+    }
+
+    #[test]
+    fn normal_points_toward_axis_and_gap_sign() {
+        for c in [cylinder(), cone()] {
+            for &(i, j) in &[(0, 0), (3, 1), (c.sp.n_sectors() - 1, 2)] {
+                let (x_in, _, _) = offset_point(&c, p(i, j, 0.4, 0.6), 0.01);
+                let pr = closest_point(&c.sp, &c.q, x_in, None, DEFAULT_EPS_NR).unwrap();
+                let radial = Vector3::new(pr.point.x, pr.point.y, 0.0).normalize();
+                // Toward the axis: negative radial component (cone half-angle 45°: -1/√2).
+                assert!(
+                    pr.normal.dot(&radial) < -0.7,
+                    "normal {} at {}",
+                    pr.normal,
+                    pr.point
+                );
+                assert!(pr.gap > 0.0);
+                // Move the point radially outward, through the casing: penetration.
+                let x_out = x_in + 0.03 * radial;
+                let pr = closest_point(&c.sp, &c.q, x_out, Some(pr.param), DEFAULT_EPS_NR).unwrap();
+                assert!(pr.gap < 0.0, "gap {}", pr.gap);
+            }
+        }
+        // A meridian running toward −z flips the raw normal; orientation restores it.
+        let c = case(12, 3, |_| 0.3, |s| -0.1 * s);
+        assert_eq!(c.sp.normal_sign(), -1.0);
+        let (x, _, _) = offset_point(&c, p(2, 1, 0.5, 0.5), 0.01);
+        let pr = closest_point(&c.sp, &c.q, x, None, DEFAULT_EPS_NR).unwrap();
+        assert!(Vector3::new(x.x, x.y, 0.0).norm() < 0.3 && pr.gap > 0.0);
+    }
+
+    #[test]
+    fn batch_projection_updates_warm_starts() {
+        let c = cylinder();
+        let xs: Vec<_> = (0..10)
+            .map(|k| offset_point(&c, p(2 * k, k % 4, 0.3, 0.7), 0.001 * k as f64).0)
+            .collect();
+        let mut warm = vec![None; xs.len()];
+        let mut out = vec![Projection::default(); xs.len()];
+        project_nodes(&c.sp, &c.q, &xs, &mut warm, DEFAULT_EPS_NR, &mut out).unwrap();
+        for (k, o) in out.iter().enumerate() {
+            assert!((o.gap - 0.001 * k as f64).abs() < 1e-10);
+            assert_eq!(warm[k], Some(o.param));
+        }
+        let mut bad = xs.clone();
+        bad[3].x = f64::NAN;
+        let err =
+            project_nodes(&c.sp, &c.q, &bad, &mut warm, DEFAULT_EPS_NR, &mut out).unwrap_err();
+        assert_eq!(err.node, 3);
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let c = cylinder();
+        let x = Vector3::new(0.2, 0.0, 0.05);
+        assert!(matches!(
+            closest_point(&c.sp, &c.q, x, None, 0.0),
+            Err(ProjectionError::BadTolerance(_))
+        ));
+        assert!(matches!(
+            closest_point(&c.sp, &c.q[1..], x, None, 1e-5),
+            Err(ProjectionError::Spline(_))
+        ));
+        assert!(matches!(
+            closest_point(&c.sp, &c.q, x, Some(p(24, 0, 0.5, 0.5)), 1e-5),
+            Err(ProjectionError::BadWarmStart(_))
+        ));
+        assert!(matches!(
+            closest_point(&c.sp, &c.q, x, Some(p(0, 0, 1.5, 0.5)), 1e-5),
+            Err(ProjectionError::BadWarmStart(_))
+        ));
+        // A collapsed surface (all nodes at one point) is degenerate, not a panic.
+        let sp = CasingSpline::new(4, 3).unwrap();
+        let q = vec![Vector3::new(1.0, 0.0, 0.0); sp.n_control()];
+        assert!(matches!(
+            closest_point(&sp, &q, x, None, 1e-5),
+            Err(ProjectionError::DegenerateSurface { .. })
+        ));
+    }
+
+    #[test]
+    fn friction_direction_is_minus_tangential_increment() {
+        let n = Vector3::new(0.0, 0.0, 1.0);
+        let t = friction_direction(&n, &Vector3::new(3.0, -4.0, 7.0)).unwrap();
+        assert!((t - Vector3::new(-0.6, 0.8, 0.0)).norm() < 1e-15);
+        assert_eq!(friction_direction(&n, &Vector3::new(0.0, 0.0, 2.0)), None);
+        assert_eq!(friction_direction(&n, &Vector3::zeros()), None);
+        assert_eq!(friction_direction(&n, &Vector3::new(1e-12, 0.0, 1.0)), None);
+        assert!(friction_direction(&n, &Vector3::new(1e-6, 0.0, 1.0)).is_some());
+        assert_eq!(
+            friction_direction(&n, &Vector3::new(f64::NAN, 0.0, 1.0)),
+            None
+        );
+    }
+
+    /// Timing of warm-started projections (run with `--ignored --nocapture`).
+    #[test]
+    #[ignore]
+    fn timing_warm_start() {
+        let c = case(100, 5, |s| 0.3 + 0.05 * s, |s| 0.1 * s);
+        let k = 2000;
+        let targets: Vec<_> = (0..k)
+            .map(|l| {
+                p(
+                    l % 100,
+                    l % 4,
+                    (l as f64 * 0.618).fract(),
+                    (l as f64 * 0.414).fract(),
+                )
+            })
+            .collect();
+        let xs: Vec<_> = targets
+            .iter()
+            .map(|t| offset_point(&c, *t, 1e-3).0)
+            .collect();
+        // Previous-step parameter: the target moved by ~1e-3 of a patch.
+        let warm: Vec<_> = targets
+            .iter()
+            .map(|t| Some(p(t.i, t.j, (t.u + 1e-3).min(1.0), (t.v - 1e-3).max(0.0))))
+            .collect();
+        let reps = 200;
+        let mut iters = 0usize;
+        let t0 = std::time::Instant::now();
+        for _ in 0..reps {
+            for (x, w) in xs.iter().zip(&warm) {
+                let pr = closest_point(&c.sp, &c.q, *x, *w, DEFAULT_EPS_NR).unwrap();
+                iters += pr.iterations;
+            }
+        }
+        let per = t0.elapsed().as_secs_f64() / (reps * k) as f64;
+        let mut out = vec![Vector3::zeros(); c.sp.n_control()];
+        let t1 = std::time::Instant::now();
+        for _ in 0..reps {
+            c.sp.control_points(&c.nodes, &mut out).unwrap();
+        }
+        let cp = t1.elapsed().as_secs_f64() / reps as f64;
+        println!(
+            "warm projection: {:.0} ns/node, {:.2} iterations/node; control_points N=100 M=5: {:.2} us",
+            per * 1e9,
+            iters as f64 / (reps * k) as f64,
+            cp * 1e6
+        );
+    }
+}
