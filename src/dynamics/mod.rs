@@ -16,3 +16,12 @@ pub mod modal;
 pub mod numerics;
 pub mod structure;
 pub mod synthetic;
+pub mod contact_solve;
+pub mod probes;
+pub mod scenario;
+pub mod simulate;
+
+pub use numerics::{KernelChoice, Numerics};
+pub use probes::SimulationOutput;
+pub use scenario::{Case, CasingModel, InitialVelocity, LobeLoad, RigidCasing, RigidShape};
+pub use simulate::{SimError, simulate};

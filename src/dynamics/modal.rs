@@ -131,6 +131,33 @@ impl ModalKernel {
         }
     }
 
+    /// Static boundary displacements `K(Ω)⁻¹ f` (m) of boundary forces `f` (N, sector-major),
+    /// through the modal decomposition (`η_p = φ_pᵀ f / ω_p²`). Fails if a mode with zero
+    /// frequency is loaded.
+    pub fn static_boundary(&mut self, forces: &[f64], out: &mut [f64]) -> Result<(), String> {
+        self.tmp_eta.iter_mut().for_each(|x| *x = 0.0);
+        self.add_response(forces, Which::Tmp);
+        let gmax = self
+            .tmp_eta
+            .iter()
+            .zip(&self.c3)
+            .fold(0.0f64, |m, (t, c)| m.max((t / c).abs()));
+        for i in 0..self.tmp_eta.len() {
+            let g = self.tmp_eta[i] / self.c3[i];
+            if self.omega2[i] > 0.0 {
+                self.tmp_eta[i] = g / self.omega2[i];
+            } else if g.abs() > 1e-12 * gmax {
+                return Err(format!(
+                    "the load excites a zero-frequency mode (modal coordinate {i}): no static response"
+                ));
+            } else {
+                self.tmp_eta[i] = 0.0;
+            }
+        }
+        self.boundary_of(Which::Tmp, false, out);
+        Ok(())
+    }
+
     /// Modal coordinates of step n (after `advance`), flat over nodal diameters.
     pub fn modal_coordinates(&self) -> &[f64] {
         &self.eta
