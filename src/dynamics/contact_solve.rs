@@ -132,7 +132,10 @@ impl ControlFlexTable {
                 }
             }
         }
-        let cs = (0..n).map(|c| (c as f64 * alpha).sin_cos()).map(|(s, c)| (c, s)).collect();
+        let cs = (0..n)
+            .map(|c| (c as f64 * alpha).sin_cos())
+            .map(|(s, c)| (c, s))
+            .collect();
         Self { n, w, data, cs }
     }
 

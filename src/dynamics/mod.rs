@@ -10,16 +10,16 @@
 //! - [`simulate`]: the time loop; [`probes`]: the recorded output;
 //! - [`synthetic`]: synthetic ROMs (test and benchmark fixture).
 
+pub mod contact_solve;
 pub mod dense;
 pub mod kernel;
 pub mod modal;
 pub mod numerics;
-pub mod structure;
-pub mod synthetic;
-pub mod contact_solve;
 pub mod probes;
 pub mod scenario;
 pub mod simulate;
+pub mod structure;
+pub mod synthetic;
 
 pub use numerics::{KernelChoice, Numerics};
 pub use probes::SimulationOutput;

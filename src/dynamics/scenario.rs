@@ -70,7 +70,9 @@ impl RigidCasing {
             for &[r, z] in &self.meridian {
                 let rr = r + dr;
                 if !(rr.is_finite() && rr > 0.0 && z.is_finite()) {
-                    return Err(format!("rigid casing: radius {rr} at station {i} is not positive"));
+                    return Err(format!(
+                        "rigid casing: radius {rr} at station {i} is not positive"
+                    ));
                 }
                 out.push(nalgebra::Vector3::new(rr * th.cos(), rr * th.sin(), z));
             }

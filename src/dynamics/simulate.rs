@@ -2,12 +2,8 @@
 //! predicted casing contact nodes, project every blade-tip node, and when some gap is
 //! negative solve the contact problem and correct both structures.
 
-use crate::contact::{
-    CasingSpline, Projection, SurfaceParam, friction_direction, project_nodes,
-};
-use crate::dynamics::contact_solve::{
-    ControlFlexTable, NodeFlexTable, active_set_solve, rot_z,
-};
+use crate::contact::{CasingSpline, Projection, SurfaceParam, friction_direction, project_nodes};
+use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve, rot_z};
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
@@ -118,14 +114,25 @@ pub fn simulate(
         CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?),
         CasingModel::Rigid(_) => None,
     };
-    let (mut limit, mut omega_max, mut which) =
-        (st_i.stability_limit(), st_i.omega_max, format!("impeller `{}`", st_i.name));
+    let (mut limit, mut omega_max, mut which) = (
+        st_i.stability_limit(),
+        st_i.omega_max,
+        format!("impeller `{}`", st_i.name),
+    );
     if let Some(c) = &st_c
         && c.stability_limit() < limit
     {
-        (limit, omega_max, which) = (c.stability_limit(), c.omega_max, format!("casing `{}`", c.name));
+        (limit, omega_max, which) = (
+            c.stability_limit(),
+            c.omega_max,
+            format!("casing `{}`", c.name),
+        );
     }
-    let steps_per_rev = if case.omega != 0.0 { 2.0 * PI / (case.omega.abs() * h) } else { f64::INFINITY };
+    let steps_per_rev = if case.omega != 0.0 {
+        2.0 * PI / (case.omega.abs() * h)
+    } else {
+        f64::INFINITY
+    };
     if h >= limit {
         let rev = if case.omega != 0.0 {
             format!(
@@ -137,7 +144,13 @@ pub fn simulate(
         } else {
             String::new()
         };
-        return Err(SimError::Unstable { h, limit, omega_max, which, rev });
+        return Err(SimError::Unstable {
+            h,
+            limit,
+            omega_max,
+            which,
+            rev,
+        });
     }
 
     // Impeller geometry.
@@ -153,7 +166,11 @@ pub fn simulate(
             n_rows
         ));
     }
-    let er_i: Vec<Vector3<f64>> = impeller.contact_nodes.iter().map(|c| radial(&c.position)).collect();
+    let er_i: Vec<Vector3<f64>> = impeller
+        .contact_nodes
+        .iter()
+        .map(|c| radial(&c.position))
+        .collect();
     let x_i: Vec<Vector3<f64>> = impeller
         .contact_nodes
         .iter()
@@ -181,7 +198,11 @@ pub fn simulate(
                 }
             }
             let a = 2.0 * PI / rom.n_sectors as f64;
-            let y: Vec<Vector3<f64>> = rom.contact_nodes.iter().map(|c| Vector3::from(c.position)).collect();
+            let y: Vec<Vector3<f64>> = rom
+                .contact_nodes
+                .iter()
+                .map(|c| Vector3::from(c.position))
+                .collect();
             let mut rest = Vec::with_capacity(rom.n_sectors * m);
             for i in 0..rom.n_sectors {
                 for yj in &y {
@@ -196,16 +217,24 @@ pub fn simulate(
         }
     };
     let mut spline = CasingSpline::new(ncs, mc).map_err(|e| SimError::Spline(e.to_string()))?;
-    spline.orient_toward_axis(&rest_nodes).map_err(|e| SimError::Spline(e.to_string()))?;
+    spline
+        .orient_toward_axis(&rest_nodes)
+        .map_err(|e| SimError::Spline(e.to_string()))?;
     let alpha_c = 2.0 * PI / ncs as f64;
     let rot_c: Vec<Matrix3<f64>> = (0..ncs).map(|i| rot_z(i as f64 * alpha_c)).collect();
     let er_c: Vec<Vector3<f64>> = match casing {
-        CasingModel::Flexible(rom) => rom.contact_nodes.iter().map(|c| radial(&c.position)).collect(),
+        CasingModel::Flexible(rom) => rom
+            .contact_nodes
+            .iter()
+            .map(|c| radial(&c.position))
+            .collect(),
         CasingModel::Rigid(_) => vec![],
     };
     for p in &case.casing_probes {
         if st_c.is_none() || p[0] >= ncs || p[1] >= mc {
-            return bad(format!("casing probe {p:?} is not a contact node of a flexible casing"));
+            return bad(format!(
+                "casing probe {p:?} is not a contact node of a flexible casing"
+            ));
         }
     }
 
@@ -231,7 +260,9 @@ pub fn simulate(
             return bad("a casing load needs a flexible casing".into());
         };
         if load.lobes == 0 || !(load.static_displacement.is_finite()) || !(load.ramp_time > 0.0) {
-            return bad(format!("load {load:?}: lobes ≥ 1, finite δ and ramp_time > 0 required"));
+            return bad(format!(
+                "load {load:?}: lobes ≥ 1, finite δ and ramp_time > 0 required"
+            ));
         }
         let te_c = mc - 1;
         let mut pat = vec![0.0; ncs * nbc];
@@ -243,10 +274,15 @@ pub fn simulate(
         }
         let mut stat = vec![0.0; ncs * nbc];
         let mut mk = ModalKernel::new(stc, h);
-        mk.static_boundary(&pat, &mut stat).map_err(SimError::InvalidCase)?;
+        mk.static_boundary(&pat, &mut stat)
+            .map_err(SimError::InvalidCase)?;
         let peak = (0..ncs)
             .map(|i| {
-                let u = Vector3::new(stat[i * nbc + 3 * te_c], stat[i * nbc + 3 * te_c + 1], stat[i * nbc + 3 * te_c + 2]);
+                let u = Vector3::new(
+                    stat[i * nbc + 3 * te_c],
+                    stat[i * nbc + 3 * te_c + 1],
+                    stat[i * nbc + 3 * te_c + 2],
+                );
                 -er_c[te_c].dot(&u)
             })
             .fold(0.0f64, f64::max);
@@ -259,14 +295,22 @@ pub fn simulate(
     }
     if let Some(v) = &case.initial_velocity.impeller {
         if v.len() != st_i.n_modal {
-            return bad(format!("initial impeller velocity has {} entries, expected {}", v.len(), st_i.n_modal));
+            return bad(format!(
+                "initial impeller velocity has {} entries, expected {}",
+                v.len(),
+                st_i.n_modal
+            ));
         }
         ki.set_initial_velocity(v);
     }
     if let Some(v) = &case.initial_velocity.casing {
         match (&st_c, kc.as_mut()) {
             (Some(s), Some(k)) if v.len() == s.n_modal => k.set_initial_velocity(v),
-            _ => return bad("initial casing velocity needs a flexible casing and one entry per DOF".into()),
+            _ => {
+                return bad(
+                    "initial casing velocity needs a flexible casing and one entry per DOF".into(),
+                );
+            }
         }
     }
 
@@ -281,7 +325,9 @@ pub fn simulate(
     }
     let mut pnodes = rest_nodes.clone();
     let mut q = vec![Vector3::zeros(); spline.n_control()];
-    spline.control_points(&pnodes, &mut q).map_err(|e| SimError::Spline(e.to_string()))?;
+    spline
+        .control_points(&pnodes, &mut q)
+        .map_err(|e| SimError::Spline(e.to_string()))?;
     let mut q_prev = q.clone();
     let mut warm: Vec<Option<SurfaceParam>> = vec![None; nn];
     let mut proj = vec![Projection::default(); nn];
@@ -289,7 +335,11 @@ pub fn simulate(
     let mut wmat = vec![0.0; nn * nn];
     let mut dvec = vec![0.0; nn];
     let mut lam = vec![0.0; nn];
-    let (mut act, mut lu, mut rhs) = (Vec::with_capacity(nn), Vec::with_capacity(nn * nn), Vec::with_capacity(nn));
+    let (mut act, mut lu, mut rhs) = (
+        Vec::with_capacity(nn),
+        Vec::with_capacity(nn * nn),
+        Vec::with_capacity(nn),
+    );
     let mut fi = vec![0.0; nbl * nbi];
     let mut fc = vec![0.0; ncs * nbc];
     let (mut wu, mut wv) = (vec![0.0; ncs], vec![0.0; mc]);
@@ -337,18 +387,27 @@ pub fn simulate(
         // 2. Spline on the predicted casing nodes.
         if let Some(k) = kc.as_ref() {
             fill_casing_nodes(k.boundary(), &rot_c, &y_c, mc, &mut pnodes);
-            spline.control_points(&pnodes, &mut q).map_err(|e| SimError::Spline(e.to_string()))?;
+            spline
+                .control_points(&pnodes, &mut q)
+                .map_err(|e| SimError::Spline(e.to_string()))?;
         }
         // 3. Blade-tip nodes and closest points.
         let r_om = rot_z(case.omega * t1);
         fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-        project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj)
-            .map_err(|e| SimError::Projection { time: t1, reason: e.to_string() })?;
+        project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj).map_err(|e| {
+            SimError::Projection {
+                time: t1,
+                reason: e.to_string(),
+            }
+        })?;
         let mut min_gap = f64::INFINITY;
         cands.clear();
         for (node, p) in proj.iter().enumerate() {
             if !p.gap.is_finite() {
-                return Err(SimError::Diverged { time: t1, reason: format!("non-finite gap at blade node {node}") });
+                return Err(SimError::Diverged {
+                    time: t1,
+                    reason: format!("non-finite gap at blade node {node}"),
+                });
             }
             min_gap = min_gap.min(p.gap);
             if p.gap < 0.0 {
@@ -381,17 +440,27 @@ pub fn simulate(
                 // Relative increment of the blade node w.r.t. the casing material point (eq. 15).
                 let mut inc = gam[cd.node] - gam_prev[cd.node];
                 if kc.is_some() {
-                    let now = spline.evaluate(&q, &cd.param).map_err(|e| SimError::Spline(e.to_string()))?;
-                    let before = spline.evaluate(&q_prev, &cd.param).map_err(|e| SimError::Spline(e.to_string()))?;
+                    let now = spline
+                        .evaluate(&q, &cd.param)
+                        .map_err(|e| SimError::Spline(e.to_string()))?;
+                    let before = spline
+                        .evaluate(&q_prev, &cd.param)
+                        .map_err(|e| SimError::Spline(e.to_string()))?;
                     inc -= now.s - before.s;
                 }
-                let t = if mu > 0.0 { friction_direction(&cd.n, &inc) } else { None };
+                let t = if mu > 0.0 {
+                    friction_direction(&cd.n, &inc)
+                } else {
+                    None
+                };
                 cd.slip = t.is_some();
                 cd.fdir = cd.n + t.unwrap_or_else(Vector3::zeros) * mu;
                 let to_loc = rot_i[s].transpose() * rt;
                 cd.g_loc = to_loc * cd.n;
                 cd.f_loc = to_loc * cd.fdir;
-                cd.cps = spline.patch_control_indices(cd.param.i, cd.param.j).map_err(|e| SimError::Spline(e.to_string()))?;
+                cd.cps = spline
+                    .patch_control_indices(cd.param.i, cd.param.j)
+                    .map_err(|e| SimError::Spline(e.to_string()))?;
                 cd.c = CasingSpline::basis_weights(cd.param.u, cd.param.v);
             }
             for (k, cd) in cands.iter().enumerate() {
@@ -422,16 +491,24 @@ pub fn simulate(
                     }
                 }
             } else {
-                dense_w(hd_i.as_ref().expect("dense flexibility"), &cands, nk, w, |cd, row, is_f| {
-                    let v = if is_f { cd.f_loc } else { cd.g_loc };
-                    for d in 0..3 {
-                        row[cd.blade * nbi + 3 * cd.row + d] = v[d];
-                    }
-                });
+                dense_w(
+                    hd_i.as_ref().expect("dense flexibility"),
+                    &cands,
+                    nk,
+                    w,
+                    |cd, row, is_f| {
+                        let v = if is_f { cd.f_loc } else { cd.g_loc };
+                        for d in 0..3 {
+                            row[cd.blade * nbi + 3 * cd.row + d] = v[d];
+                        }
+                    },
+                );
                 if let Some(hc) = hd_c.as_ref() {
                     dense_w(hc, &cands, nk, w, |cd, row, is_f| {
                         let v = if is_f { cd.fdir } else { cd.n };
-                        spline.node_weight_factors(&cd.param, &mut wu, &mut wv).expect("valid param");
+                        spline
+                            .node_weight_factors(&cd.param, &mut wu, &mut wv)
+                            .expect("valid param");
                         for i in 0..ncs {
                             let vl = rot_c[i].transpose() * v;
                             for j in 0..mc {
@@ -445,7 +522,10 @@ pub fn simulate(
                 }
             }
             if !active_set_solve(nk, w, &dvec[..nk], &mut lam, &mut act, &mut lu, &mut rhs) {
-                return Err(SimError::Diverged { time: t1, reason: "singular contact matrix W".into() });
+                return Err(SimError::Diverged {
+                    time: t1,
+                    reason: "singular contact matrix W".into(),
+                });
             }
             // Corrections, opposite signs on the two structures.
             fi.iter_mut().for_each(|x| *x = 0.0);
@@ -470,7 +550,9 @@ pub fn simulate(
                     if l == 0.0 {
                         continue;
                     }
-                    spline.node_weight_factors(&cd.param, &mut wu, &mut wv).map_err(|e| SimError::Spline(e.to_string()))?;
+                    spline
+                        .node_weight_factors(&cd.param, &mut wu, &mut wv)
+                        .map_err(|e| SimError::Spline(e.to_string()))?;
                     for i in 0..ncs {
                         let fl = rot_c[i].transpose() * cd.fdir * (-l);
                         for j in 0..mc {
@@ -483,20 +565,34 @@ pub fn simulate(
                 }
                 k.correct(&fc);
                 fill_casing_nodes(k.boundary(), &rot_c, &y_c, mc, &mut pnodes);
-                spline.control_points(&pnodes, &mut q).map_err(|e| SimError::Spline(e.to_string()))?;
+                spline
+                    .control_points(&pnodes, &mut q)
+                    .map_err(|e| SimError::Spline(e.to_string()))?;
             }
             fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
             // Residual penetration: re-project the candidates on the corrected surface.
             for cd in cands.iter() {
                 res_warm[0] = Some(cd.param);
-                project_nodes(&spline, &q, &gam[cd.node..cd.node + 1], &mut res_warm, eps, &mut res_proj)
-                    .map_err(|e| SimError::Projection { time: t1, reason: e.to_string() })?;
+                project_nodes(
+                    &spline,
+                    &q,
+                    &gam[cd.node..cd.node + 1],
+                    &mut res_warm,
+                    eps,
+                    &mut res_proj,
+                )
+                .map_err(|e| SimError::Projection {
+                    time: t1,
+                    reason: e.to_string(),
+                })?;
                 window_residual = window_residual.max(-res_proj[0].gap);
             }
             if window_residual > 1e-4 * radius_scale.max(1e-3) {
                 return Err(SimError::Diverged {
                     time: t1,
-                    reason: format!("residual penetration {window_residual:.3e} m after correction"),
+                    reason: format!(
+                        "residual penetration {window_residual:.3e} m after correction"
+                    ),
                 });
             }
         }
@@ -509,7 +605,10 @@ pub fn simulate(
             k.advance();
         }
         if step % 64 == 0 && !(ki.is_finite() && kc.as_ref().is_none_or(|k| k.is_finite())) {
-            return Err(SimError::Diverged { time: t1, reason: "non-finite state".into() });
+            return Err(SimError::Diverged {
+                time: t1,
+                reason: "non-finite state".into(),
+            });
         }
         // Probes.
         let ub = ki.boundary();
@@ -528,7 +627,12 @@ pub fn simulate(
             }
             if let Some(k) = kc.as_ref() {
                 for (pi, p) in case.casing_probes.iter().enumerate() {
-                    out.casing_radial[pi].push(er_c[p[1]].dot(&node_disp(k.boundary(), p[0], nbc, p[1])));
+                    out.casing_radial[pi].push(er_c[p[1]].dot(&node_disp(
+                        k.boundary(),
+                        p[0],
+                        nbc,
+                        p[1],
+                    )));
                 }
                 let e = k.energies();
                 out.casing_energy.kinetic.push(e.kinetic);
@@ -553,11 +657,21 @@ pub fn simulate(
 
 #[inline]
 fn node_disp(ub: &[f64], s: usize, nb: usize, j: usize) -> Vector3<f64> {
-    Vector3::new(ub[s * nb + 3 * j], ub[s * nb + 3 * j + 1], ub[s * nb + 3 * j + 2])
+    Vector3::new(
+        ub[s * nb + 3 * j],
+        ub[s * nb + 3 * j + 1],
+        ub[s * nb + 3 * j + 2],
+    )
 }
 
 /// Casing contact nodes in the global frame, `P(i, j) = R(θ_i)(Y_j + u_(i,j))`.
-fn fill_casing_nodes(ub: &[f64], rot: &[Matrix3<f64>], y: &[Vector3<f64>], m: usize, out: &mut [Vector3<f64>]) {
+fn fill_casing_nodes(
+    ub: &[f64],
+    rot: &[Matrix3<f64>],
+    y: &[Vector3<f64>],
+    m: usize,
+    out: &mut [Vector3<f64>],
+) {
     let nb = 3 * m;
     for (i, r) in rot.iter().enumerate() {
         for j in 0..m {
@@ -567,7 +681,14 @@ fn fill_casing_nodes(ub: &[f64], rot: &[Matrix3<f64>], y: &[Vector3<f64>], m: us
 }
 
 /// Blade-tip nodes in the fixed frame, `Γ = R(Ωt) R(θ_s)(X_j + u_(s,j))`.
-fn fill_blade_nodes(ub: &[f64], r_om: &Matrix3<f64>, rot: &[Matrix3<f64>], x: &[Vector3<f64>], nc: usize, out: &mut [Vector3<f64>]) {
+fn fill_blade_nodes(
+    ub: &[f64],
+    r_om: &Matrix3<f64>,
+    rot: &[Matrix3<f64>],
+    x: &[Vector3<f64>],
+    nc: usize,
+    out: &mut [Vector3<f64>],
+) {
     let nb = 3 * nc;
     for (s, r) in rot.iter().enumerate() {
         let rr = r_om * r;
@@ -602,9 +723,23 @@ fn dense_w(
         }
     }
     let mut hf = Mat::<f64>::zeros(n, nk);
-    matmul(hf.as_mut(), Accum::Replace, hmat.as_ref(), f.as_ref(), 1.0, Par::Seq);
+    matmul(
+        hf.as_mut(),
+        Accum::Replace,
+        hmat.as_ref(),
+        f.as_ref(),
+        1.0,
+        Par::Seq,
+    );
     let mut gw = Mat::<f64>::zeros(nk, nk);
-    matmul(gw.as_mut(), Accum::Replace, g.as_ref(), hf.as_ref(), 1.0, Par::Seq);
+    matmul(
+        gw.as_mut(),
+        Accum::Replace,
+        g.as_ref(),
+        hf.as_ref(),
+        1.0,
+        Par::Seq,
+    );
     for k in 0..nk {
         for l in 0..nk {
             w[k * nk + l] += gw[(k, l)];
@@ -638,7 +773,11 @@ mod tests {
             omega: 1500.0,
             duration: 6e-3,
             friction: mu,
-            load: Some(LobeLoad { lobes: 2, static_displacement: 2.5e-4, ramp_time: 3e-3 }),
+            load: Some(LobeLoad {
+                lobes: 2,
+                static_displacement: 2.5e-4,
+                ramp_time: 3e-3,
+            }),
             clearance_offset: vec![],
             casing_probes: vec![[0, 2], [2, 2]],
             initial_velocity: InitialVelocity::default(),
@@ -669,9 +808,25 @@ mod tests {
         let h = stable_h(&imp, &cas, 1500.0);
         let casing = CasingModel::Flexible(cas);
         // Tight ε_NR so that both runs take the same Newton path (the kernels differ by round-off).
-        let f = simulate(&lobe_case(h, 0.1, KernelChoice::Fast, 1e-12), &imp, &casing, None).unwrap();
-        let d = simulate(&lobe_case(h, 0.1, KernelChoice::DenseReference, 1e-12), &imp, &casing, None).unwrap();
-        assert!(f.contact_steps > 20, "the scenario must rub: {} contact steps", f.contact_steps);
+        let f = simulate(
+            &lobe_case(h, 0.1, KernelChoice::Fast, 1e-12),
+            &imp,
+            &casing,
+            None,
+        )
+        .unwrap();
+        let d = simulate(
+            &lobe_case(h, 0.1, KernelChoice::DenseReference, 1e-12),
+            &imp,
+            &casing,
+            None,
+        )
+        .unwrap();
+        assert!(
+            f.contact_steps > 20,
+            "the scenario must rub: {} contact steps",
+            f.contact_steps
+        );
         assert_eq!(f.contact_steps, d.contact_steps);
         for (a, b) in [
             (&f.blade_le_radial, &d.blade_le_radial),
@@ -682,7 +837,12 @@ mod tests {
         ] {
             let s = max_abs(b);
             assert!(s > 0.0);
-            assert!(max_diff(a, b) <= 1e-9 * s, "fast vs dense: {:e} vs {:e}", max_diff(a, b), s);
+            assert!(
+                max_diff(a, b) <= 1e-9 * s,
+                "fast vs dense: {:e} vs {:e}",
+                max_diff(a, b),
+                s
+            );
         }
     }
 
@@ -699,7 +859,10 @@ mod tests {
             name: "oscillator".into(),
             component: Component::Impeller,
             n_sectors: 1,
-            contact_nodes: vec![ContactNode { position: [r0, 0.0, 0.0], row: 0 }],
+            contact_nodes: vec![ContactNode {
+                position: [r0, 0.0, 0.0],
+                row: 0,
+            }],
             harmonics: vec![HarmonicBlock {
                 nodal_diameter: 0,
                 n_modes: 0,
@@ -717,7 +880,10 @@ mod tests {
         let casing = CasingModel::Rigid(RigidCasing {
             n_sectors: 64,
             meridian: vec![[r0 + g0, -0.01], [r0 + g0, 0.01]],
-            shape: RigidShape::Lobes { lobes: 0, amplitude: 0.0 },
+            shape: RigidShape::Lobes {
+                lobes: 0,
+                amplitude: 0.0,
+            },
         });
         let w = (k / m).sqrt();
         let h = 1e-3 / w;
@@ -729,8 +895,16 @@ mod tests {
             load: None,
             clearance_offset: vec![],
             casing_probes: vec![],
-            initial_velocity: InitialVelocity { impeller: Some(vec![v0, 0.0, 0.0]), casing: None },
-            numerics: Numerics { time_step: h, decimation: 1, newton_tolerance: 1e-12, ..Default::default() },
+            initial_velocity: InitialVelocity {
+                impeller: Some(vec![v0, 0.0, 0.0]),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: h,
+                decimation: 1,
+                newton_tolerance: 1e-12,
+                ..Default::default()
+            },
         };
         let out = simulate(&case, &rom, &casing, None).unwrap();
         let tc = (g0 * w / v0).asin() / w;
@@ -738,14 +912,23 @@ mod tests {
         let tol = 5.0 * w * h * g0;
         let mut worst = 0.0f64;
         for (t, u) in out.time.iter().zip(&out.blade_le_radial[0]) {
-            let exact = if *t < tc { v0 / w * (w * t).sin() } else { g0 * (w * (t - tc)).cos() };
+            let exact = if *t < tc {
+                v0 / w * (w * t).sin()
+            } else {
+                g0 * (w * (t - tc)).cos()
+            };
             worst = worst.max((u - exact).abs());
             assert!(*u <= g0 * (1.0 + 1e-9), "penetration at t = {t}: u = {u}");
         }
         assert!(worst <= tol, "max error {worst:e} > {tol:e}");
-        assert!(out.contact_steps >= 1 && out.contact_steps <= 4, "{} contact steps", out.contact_steps);
+        assert!(
+            out.contact_steps >= 1 && out.contact_steps <= 4,
+            "{} contact steps",
+            out.contact_steps
+        );
         // Energy after the impact: only the strain energy at the wall remains, ½ k g0².
-        let e_end = out.impeller_energy.kinetic.last().unwrap() + out.impeller_energy.strain.last().unwrap();
+        let e_end = out.impeller_energy.kinetic.last().unwrap()
+            + out.impeller_energy.strain.last().unwrap();
         assert!((e_end - 0.5 * k * g0 * g0).abs() < 1e-2 * 0.5 * k * g0 * g0);
     }
 
@@ -753,24 +936,34 @@ mod tests {
     fn time_step_above_the_stability_limit_is_refused() {
         let (imp, cas) = small_pair(4);
         let h = 2.0 * stable_h(&imp, &cas, 1500.0) * 1.001;
-        let err = simulate(&lobe_case(h, 0.0, KernelChoice::Fast, 1e-5), &imp, &CasingModel::Flexible(cas), None)
-            .unwrap_err();
+        let err = simulate(
+            &lobe_case(h, 0.0, KernelChoice::Fast, 1e-5),
+            &imp,
+            &CasingModel::Flexible(cas),
+            None,
+        )
+        .unwrap_err();
         let msg = err.to_string();
         assert!(matches!(err, SimError::Unstable { .. }));
-        assert!(msg.contains("stability limit") && msg.contains("steps"), "{msg}");
+        assert!(
+            msg.contains("stability limit") && msg.contains("steps"),
+            "{msg}"
+        );
         assert!(msg.contains(&format!("{h:.4e}")), "{msg}");
     }
 
     #[test]
     fn energy_never_grows_with_contacts_and_no_damping_or_friction() {
         let (imp, cas) = small_pair(4);
-        let h = stable_h(&imp, &cas, 0.0);
+        // Per-step penetrations d* ∝ h: with h = limit/20 the O(κ d*²) error of linearizing the
+        // curved constraint each step is below round-off (at h = limit/2 it reaches ~1e-7 of E).
+        let h = stable_h(&imp, &cas, 0.0) / 10.0;
         let st = Structure::new(&imp, 0.0).unwrap();
         // Every tip node of every blade thrown outward.
         let mut v = vec![0.0; st.n_modal];
         for s in 0..4 {
             for j in 0..2 {
-                v[s * 6 + 3 * j] = 0.3 + 0.1 * s as f64;
+                v[s * 6 + 3 * j] = 30.0 + 10.0 * s as f64;
             }
         }
         let case = Case {
@@ -780,8 +973,15 @@ mod tests {
             load: None,
             clearance_offset: vec![],
             casing_probes: vec![],
-            initial_velocity: InitialVelocity { impeller: Some(v), casing: None },
-            numerics: Numerics { time_step: h, decimation: 1, ..Default::default() },
+            initial_velocity: InitialVelocity {
+                impeller: Some(v),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: h,
+                decimation: 1,
+                ..Default::default()
+            },
         };
         let out = simulate(&case, &imp, &CasingModel::Flexible(cas), None).unwrap();
         assert!(out.contact_steps > 5);
@@ -794,57 +994,101 @@ mod tests {
             })
             .collect();
         for w in e.windows(2) {
-            assert!(w[1] <= w[0] * (1.0 + 1e-11), "energy grew: {} -> {}", w[0], w[1]);
+            assert!(
+                w[1] <= w[0] * (1.0 + 1e-13),
+                "energy grew: {} -> {}",
+                w[0],
+                w[1]
+            );
         }
-        assert!(e.last().unwrap() < &(0.999 * e[0]), "impacts must dissipate");
+        assert!(
+            e.last().unwrap() < &(0.999 * e[0]),
+            "impacts must dissipate"
+        );
     }
 
     #[test]
     fn two_lobe_scenario_stays_symmetric_under_rotation_by_pi() {
         let (imp, cas) = small_pair(4);
         let h = stable_h(&imp, &cas, 1500.0);
-        let out = simulate(&lobe_case(h, 0.1, KernelChoice::Fast, 1e-5), &imp, &CasingModel::Flexible(cas), None)
-            .unwrap();
+        let out = simulate(
+            &lobe_case(h, 0.1, KernelChoice::Fast, 1e-5),
+            &imp,
+            &CasingModel::Flexible(cas),
+            None,
+        )
+        .unwrap();
         assert!(out.contact_steps > 0);
         let s = max_abs(&out.blade_le_radial);
         for b in 0..2 {
-            let d = max_diff(&out.blade_le_radial[b..b + 1], &out.blade_le_radial[b + 2..b + 3]);
+            let d = max_diff(
+                &out.blade_le_radial[b..b + 1],
+                &out.blade_le_radial[b + 2..b + 3],
+            );
             assert!(d <= 1e-9 * s, "blade {b} vs {}: {d:e} (scale {s:e})", b + 2);
-            let f = max_diff(&out.blade_normal_force[b..b + 1], &out.blade_normal_force[b + 2..b + 3]);
+            let f = max_diff(
+                &out.blade_normal_force[b..b + 1],
+                &out.blade_normal_force[b + 2..b + 3],
+            );
             assert!(f <= 1e-9 * max_abs(&out.blade_normal_force));
         }
     }
 
     #[test]
-    fn convergence_in_h_eps_nr_and_friction_with_negligible_residual_penetration() {
+    fn convergence_in_h_eps_nr_and_friction() {
         let (imp, cas) = small_pair(4);
-        let h = stable_h(&imp, &cas, 1500.0);
+        let h = stable_h(&imp, &cas, 1500.0) / 10.0;
         let casing = CasingModel::Flexible(cas);
         let run = |h: f64, mu: f64, eps: f64| {
-            simulate(&lobe_case(h, mu, KernelChoice::Fast, eps), &imp, &casing, None).unwrap()
+            simulate(
+                &lobe_case(h, mu, KernelChoice::Fast, eps),
+                &imp,
+                &casing,
+                None,
+            )
+            .unwrap()
         };
         let base = run(h, 0.0, 1e-5);
         assert!(base.contact_steps > 0);
-        // Residual penetration ≤ 1e-8 of the vibration level.
-        assert!(
-            base.max_residual_penetration <= 1e-8 * base.max_blade_radial,
-            "residual {:e} vs level {:e}",
-            base.max_residual_penetration,
-            base.max_blade_radial
-        );
         // ε_NR = 1e-5 and 1e-10 superimposed.
         let tight = run(h, 0.0, 1e-10);
         let s = max_abs(&base.blade_le_radial);
-        assert!(max_diff(&base.blade_le_radial, &tight.blade_le_radial) <= 1e-6 * s);
+        let d = max_diff(&base.blade_le_radial, &tight.blade_le_radial);
+        assert!(d <= 1e-6 * s, "eps_NR: {d:e} vs {s:e}");
         // Halving h: peak blade amplitude within 1 %.
         let half = run(0.5 * h, 0.0, 1e-5);
-        let (p1, p2) = (max_abs(&base.blade_le_radial), max_abs(&half.blade_le_radial));
+        let (p1, p2) = (
+            max_abs(&base.blade_le_radial),
+            max_abs(&half.blade_le_radial),
+        );
         assert!((p1 - p2).abs() <= 0.01 * p1, "peak {p1:e} vs {p2:e}");
         // μ = 0.01 nearly identical, no instability.
         let fr = run(h, 0.01, 1e-5);
         assert!(fr.max_blade_radial.is_finite());
-        assert!(max_diff(&base.blade_le_radial, &fr.blade_le_radial) <= 0.05 * s);
+        let d = max_diff(&base.blade_le_radial, &fr.blade_le_radial);
+        assert!(d <= 0.05 * s, "mu: {d:e} vs {s:e}");
         assert!(max_abs(&fr.blade_tangential_force) > 0.0);
-        assert!(fr.max_residual_penetration <= 1e-8 * fr.max_blade_radial);
+    }
+
+    /// At the paper's resolution (h = 1e-7 s) the residual penetration after correction is
+    /// ≤ 1e-8 of the vibration level (paper §3.3.3). It is the O(κ d*²) error of the linearized
+    /// constraint, so it shrinks like h²; at coarse steps (a few hundred per revolution) it is larger.
+    #[test]
+    fn residual_penetration_is_negligible_at_paper_resolution() {
+        let (imp, cas) = small_pair(4);
+        let casing = CasingModel::Flexible(cas);
+        for mu in [0.0, 0.01] {
+            let mut case = lobe_case(1e-7, mu, KernelChoice::Fast, 1e-5);
+            case.duration = 4e-3;
+            case.numerics.decimation = 100;
+            let out = simulate(&case, &imp, &casing, None).unwrap();
+            assert!(out.contact_steps > 100);
+            assert!(
+                out.max_residual_penetration <= 1e-8 * out.max_blade_radial,
+                "μ = {mu}: residual {:e} vs level {:e}",
+                out.max_residual_penetration,
+                out.max_blade_radial
+            );
+        }
     }
 }
