@@ -25,3 +25,4 @@ pub use numerics::{KernelChoice, Numerics};
 pub use probes::SimulationOutput;
 pub use scenario::{Case, CasingModel, InitialVelocity, LobeLoad, RigidCasing, RigidShape};
 pub use simulate::{SimError, simulate};
+pub mod bench;

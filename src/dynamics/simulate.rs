@@ -79,8 +79,6 @@ struct Cand {
     slip: bool,
     g_loc: Vector3<f64>,
     f_loc: Vector3<f64>,
-    cps: [usize; 16],
-    c: [f64; 16],
     param: SurfaceParam,
 }
 
@@ -420,8 +418,6 @@ pub fn simulate(
                     slip: false,
                     g_loc: Vector3::zeros(),
                     f_loc: Vector3::zeros(),
-                    cps: [0; 16],
-                    c: [0.0; 16],
                     param: p.param,
                 });
             }
@@ -458,10 +454,6 @@ pub fn simulate(
                 let to_loc = rot_i[s].transpose() * rt;
                 cd.g_loc = to_loc * cd.n;
                 cd.f_loc = to_loc * cd.fdir;
-                cd.cps = spline
-                    .patch_control_indices(cd.param.i, cd.param.j)
-                    .map_err(|e| SimError::Spline(e.to_string()))?;
-                cd.c = CasingSpline::basis_weights(cd.param.u, cd.param.v);
             }
             for (k, cd) in cands.iter().enumerate() {
                 dvec[k] = proj[cd.node].gap;
@@ -480,13 +472,7 @@ pub fn simulate(
                 if let Some(tc) = tab_c.as_ref() {
                     for (k, a) in cands.iter().enumerate() {
                         for (l, b) in cands.iter().enumerate() {
-                            let mut acc = 0.0;
-                            for (ia, &qa) in a.cps.iter().enumerate() {
-                                for (ib, &qb) in b.cps.iter().enumerate() {
-                                    acc += a.c[ia] * b.c[ib] * tc.bilinear(qa, qb, &a.n, &b.fdir);
-                                }
-                            }
-                            w[k * nk + l] += acc;
+                            w[k * nk + l] += tc.pair(&a.param, &a.n, &b.param, &b.fdir);
                         }
                     }
                 }
