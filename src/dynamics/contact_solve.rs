@@ -76,6 +76,8 @@ pub struct ControlFlexTable {
     n: usize,
     w: usize,
     data: Vec<Matrix3<f64>>,
+    /// The same blocks as plain column-major arrays (hot loop of [`ControlFlexTable::pair`]).
+    flat: Vec<[f64; 9]>,
     /// cos, sin of cl·α per class.
     cs: Vec<(f64, f64)>,
 }
@@ -136,7 +138,21 @@ impl ControlFlexTable {
             .map(|c| (c as f64 * alpha).sin_cos())
             .map(|(s, c)| (c, s))
             .collect();
-        Self { n, w, data, cs }
+        let flat = data
+            .iter()
+            .map(|m| {
+                let mut a = [0.0; 9];
+                a.copy_from_slice(m.as_slice());
+                a
+            })
+            .collect();
+        Self {
+            n,
+            w,
+            data,
+            flat,
+            cs,
+        }
     }
 
     /// Casing contribution to `W` of the pair (k, l): `n_kᵀ [Σ_a Σ_b c^k_a c^l_b HQ(a, b)] f_l`
@@ -156,15 +172,18 @@ impl ControlFlexTable {
         let (vk, _, _) = cubic_basis(pk.v);
         let (ul, _, _) = cubic_basis(pl.u);
         let (vl, _, _) = cubic_basis(pl.v);
-        // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ.
-        let mut v = [Matrix3::<f64>::zeros(); 7];
+        // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ (plain arrays: this is the hot loop).
+        let mut v = [[0.0f64; 9]; 7];
         for (di, vd) in v.iter_mut().enumerate() {
             let d = (pk.i + n * 4 + di - 3 - pl.i) % n;
             for a in 0..4 {
+                let base = (d * self.w + pk.j + a) * self.w + pl.j;
                 for b in 0..4 {
                     let wgt = vk[a] * vl[b];
-                    let t = &self.data[(d * self.w + pk.j + a) * self.w + pl.j + b];
-                    *vd += t * wgt;
+                    let t = &self.flat[base + b];
+                    for e in 0..9 {
+                        vd[e] += wgt * t[e];
+                    }
                 }
             }
         }
@@ -172,11 +191,16 @@ impl ControlFlexTable {
         for beta in 0..4 {
             let clb = (pl.i + beta + n - 1) % n;
             let (c, s) = self.cs[clb];
-            let nb = Vector3::new(c * nk.x + s * nk.y, -s * nk.x + c * nk.y, nk.z);
-            let fb = Vector3::new(c * fl.x + s * fl.y, -s * fl.x + c * fl.y, fl.z);
+            let nb = [c * nk.x + s * nk.y, -s * nk.x + c * nk.y, nk.z];
+            let fb = [c * fl.x + s * fl.y, -s * fl.x + c * fl.y, fl.z];
             for alpha in 0..4 {
-                let wgt = uk[alpha] * ul[beta];
-                acc += wgt * nb.dot(&(v[alpha + 3 - beta] * fb));
+                let m = &v[alpha + 3 - beta];
+                // Column-major 3×3 (nalgebra layout): m[r + 3 c].
+                let mut q = 0.0;
+                for r in 0..3 {
+                    q += nb[r] * (m[r] * fb[0] + m[r + 3] * fb[1] + m[r + 6] * fb[2]);
+                }
+                acc += uk[alpha] * ul[beta] * q;
             }
         }
         acc
@@ -255,7 +279,7 @@ fn gauss_solve(n: usize, a: &mut [f64], b: &mut [f64]) -> bool {
                 piv = r;
             }
         }
-        if !(best > 0.0) || !best.is_finite() {
+        if best.is_nan() || best <= 0.0 || !best.is_finite() {
             return false;
         }
         if piv != col {
@@ -302,9 +326,24 @@ mod tests {
         let spline = CasingSpline::new(8, 3).unwrap();
         let tab = ControlFlexTable::build(&mut k, &spline);
         let params = [
-            SurfaceParam { i: 0, j: 0, u: 0.3, v: 0.9 },
-            SurfaceParam { i: 7, j: 1, u: 0.8, v: 0.2 },
-            SurfaceParam { i: 3, j: 1, u: 0.05, v: 0.6 },
+            SurfaceParam {
+                i: 0,
+                j: 0,
+                u: 0.3,
+                v: 0.9,
+            },
+            SurfaceParam {
+                i: 7,
+                j: 1,
+                u: 0.8,
+                v: 0.2,
+            },
+            SurfaceParam {
+                i: 3,
+                j: 1,
+                u: 0.05,
+                v: 0.6,
+            },
         ];
         let nv = Vector3::new(-0.8, 0.1, 0.3);
         let fv = Vector3::new(0.2, -0.9, 0.4);
@@ -321,7 +360,10 @@ mod tests {
                     }
                 }
                 let fast = tab.pair(pk, &nv, pl, &fv);
-                assert!((fast - explicit).abs() <= 1e-12 * explicit.abs().max(1e-30), "{fast:e} vs {explicit:e}");
+                assert!(
+                    (fast - explicit).abs() <= 1e-12 * explicit.abs().max(1e-30),
+                    "{fast:e} vs {explicit:e}"
+                );
             }
         }
     }

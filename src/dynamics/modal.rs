@@ -192,8 +192,8 @@ impl ModalKernel {
             // c2r computes x_s = Σ_k X_k e^{ikθ_s} over the full spectrum; see the module doc of
             // `structure` for the orthonormal convention u_s = Σ_k w_k (a_k cos + b_k sin).
             if b.real {
-                for r in 0..nb {
-                    self.spec[r * nspec + k] = Complex64::new(b.w * xb[r], 0.0);
+                for (r, x) in xb.iter().enumerate() {
+                    self.spec[r * nspec + k] = Complex64::new(b.w * x, 0.0);
                 }
             } else {
                 for r in 0..nb {

@@ -46,4 +46,6 @@ pub struct SimulationOutput {
     pub contact_steps: usize,
     pub max_residual_penetration: f64,
     pub max_blade_radial: f64,
+    /// Wall-clock time of the stepping loop alone (s), setup excluded.
+    pub loop_seconds: f64,
 }

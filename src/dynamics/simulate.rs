@@ -56,18 +56,6 @@ fn radial(p: &[f64; 3]) -> Vector3<f64> {
     }
 }
 
-fn make_kernel(st: &Structure, h: f64, choice: KernelChoice) -> Box<dyn StructureKernel> {
-    match choice {
-        KernelChoice::Fast => Box::new(ModalKernel::new(st, h)),
-        KernelChoice::DenseReference => Box::new(DenseKernel::new(st, h)),
-    }
-}
-
-/// Dense boundary flexibility `[A⁻¹]_bb` (dense reference only).
-fn dense_flex(st: &Structure, h: f64) -> Mat<f64> {
-    DenseKernel::new(st, h).boundary_flexibility().to_owned()
-}
-
 /// One contact candidate of the current step.
 #[derive(Clone, Copy, Debug)]
 struct Cand {
@@ -237,19 +225,28 @@ pub fn simulate(
     }
 
     // Kernels and flexibility.
-    let mut ki = make_kernel(&st_i, h, num.kernel);
-    let mut kc = st_c.as_ref().map(|s| make_kernel(s, h, num.kernel));
     let nbc = 3 * mc;
     let fast = num.kernel == KernelChoice::Fast;
     let (mut tab_i, mut tab_c, mut hd_i, mut hd_c) = (None, None, None, None);
+    let mut ki: Box<dyn StructureKernel>;
+    let mut kc: Option<Box<dyn StructureKernel>> = None;
     if fast {
+        ki = Box::new(ModalKernel::new(&st_i, h));
         tab_i = Some(NodeFlexTable::build(ki.as_mut()));
-        if let Some(k) = kc.as_mut() {
+        if let Some(s) = &st_c {
+            let mut k: Box<dyn StructureKernel> = Box::new(ModalKernel::new(s, h));
             tab_c = Some(ControlFlexTable::build(k.as_mut(), &spline));
+            kc = Some(k);
         }
     } else {
-        hd_i = Some(dense_flex(&st_i, h));
-        hd_c = st_c.as_ref().map(|s| dense_flex(s, h));
+        let k = DenseKernel::new(&st_i, h);
+        hd_i = Some(k.boundary_flexibility().to_owned());
+        ki = Box::new(k);
+        if let Some(s) = &st_c {
+            let k = DenseKernel::new(s, h);
+            hd_c = Some(k.boundary_flexibility().to_owned());
+            kc = Some(Box::new(k));
+        }
     }
 
     // Casing load pattern, scaled to the requested static displacement.
@@ -257,7 +254,11 @@ pub fn simulate(
         let (Some(stc), Some(k)) = (&st_c, kc.as_mut()) else {
             return bad("a casing load needs a flexible casing".into());
         };
-        if load.lobes == 0 || !(load.static_displacement.is_finite()) || !(load.ramp_time > 0.0) {
+        if load.lobes == 0
+            || !(load.static_displacement.is_finite())
+            || load.ramp_time.is_nan()
+            || load.ramp_time <= 0.0
+        {
             return bad(format!(
                 "load {load:?}: lobes ≥ 1, finite δ and ramp_time > 0 required"
             ));
@@ -284,7 +285,7 @@ pub fn simulate(
                 -er_c[te_c].dot(&u)
             })
             .fold(0.0f64, f64::max);
-        if !(peak > 0.0) {
+        if peak.is_nan() || peak <= 0.0 {
             return bad("the casing load produces no inward static displacement".into());
         }
         let scale = load.static_displacement / peak;
@@ -368,6 +369,7 @@ pub fn simulate(
     let mut window_residual = 0.0f64;
     let radius_scale = rest_nodes.iter().map(|p| p.xy().norm()).fold(0.0, f64::max);
 
+    let clock = std::time::Instant::now();
     for step in 0..n_steps {
         let t_n = step as f64 * h;
         let t1 = t_n + h;
@@ -638,6 +640,7 @@ pub fn simulate(
         }
     }
     out.max_residual_penetration = out.max_residual_penetration.max(window_residual).max(0.0);
+    out.loop_seconds = clock.elapsed().as_secs_f64();
     Ok(out)
 }
 

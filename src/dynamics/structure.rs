@@ -279,28 +279,51 @@ impl Structure {
     /// Assembled physical mass, stiffness K(Ω) and damping matrices (ARCH ordering),
     /// `Pᵀ blockdiag(·_k) P`.
     pub fn assemble_physical(&self) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        // P is sparse (a boundary harmonic row has N entries, a modal row one): form
+        // Pᵀ X P row by row instead of with dense products (O(N² n_b n) instead of O(n³)).
         let p = self.physical_to_harmonic();
         let n = self.n_modal;
-        let mut out = [
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-            DMatrix::zeros(n, n),
-        ];
-        for (o, pick) in out.iter_mut().zip(0..3) {
-            let mut blk = DMatrix::zeros(n, n);
+        let rows: Vec<Vec<(usize, f64)>> = (0..n)
+            .map(|r| {
+                (0..n)
+                    .filter(|&c| p[(r, c)] != 0.0)
+                    .map(|c| (c, p[(r, c)]))
+                    .collect()
+            })
+            .collect();
+        let assemble = |pick: usize| {
+            // Y = X P (row-major rows of length n), then Pᵀ Y.
+            let mut y = vec![0.0; n * n];
             for b in &self.blocks {
-                let src = match pick {
+                let x = match pick {
                     0 => &b.mass,
                     1 => &b.stiffness,
                     _ => &b.damping,
                 };
-                blk.view_mut((b.offset, b.offset), (b.dim, b.dim))
-                    .copy_from(src);
+                for r in 0..b.dim {
+                    let yr = &mut y[(b.offset + r) * n..(b.offset + r + 1) * n];
+                    for c in 0..b.dim {
+                        let v = x[(r, c)];
+                        if v != 0.0 {
+                            for &(j, pv) in &rows[b.offset + c] {
+                                yr[j] += v * pv;
+                            }
+                        }
+                    }
+                }
             }
-            *o = p.transpose() * blk * &p;
-        }
-        let [m, k, d] = out;
-        (m, k, d)
+            let mut out = DMatrix::zeros(n, n);
+            for (r, row) in rows.iter().enumerate() {
+                let yr = &y[r * n..(r + 1) * n];
+                for &(i, pv) in row {
+                    for (j, yv) in yr.iter().enumerate() {
+                        out[(i, j)] += pv * yv;
+                    }
+                }
+            }
+            out
+        };
+        (assemble(0), assemble(1), assemble(2))
     }
 }
 
