@@ -101,6 +101,13 @@ mod tests {
     #[ignore = "timing; run with --ignored --nocapture"]
     fn print_paper_scale_timings() {
         faer::set_global_parallelism(faer::Par::Seq);
+        let li = Structure::new(&synthetic_rom(&SyntheticSpec::paper_impeller()), 1000.0).unwrap();
+        let lc = Structure::new(&synthetic_rom(&SyntheticSpec::paper_casing()), 0.0).unwrap();
+        println!(
+            "limits: impeller {:e} s, casing {:e} s",
+            li.stability_limit(),
+            lc.stability_limit()
+        );
         for (kernel, steps) in [
             (KernelChoice::Fast, 20000),
             (KernelChoice::DenseReference, 100),
@@ -118,11 +125,17 @@ mod tests {
     #[test]
     #[ignore = "timing; run with --ignored --nocapture"]
     fn print_fast_contact_timing() {
-        let r = bench_paper_scale(KernelChoice::Fast, true, 5000).unwrap();
-        println!(
-            "Fast contact: {:.2} µs/step, contact fraction {:.3}",
-            r.us_per_step, r.contact_fraction
-        );
+        for (kernel, steps) in [
+            (KernelChoice::Fast, 100),
+            (KernelChoice::DenseReference, 100),
+            (KernelChoice::Fast, 2000),
+        ] {
+            let r = bench_paper_scale(kernel, true, steps).unwrap();
+            println!(
+                "{kernel:?} contact {steps}: {:.2} µs/step, contact fraction {:.3}",
+                r.us_per_step, r.contact_fraction
+            );
+        }
     }
 
     #[test]
