@@ -1,3 +1,30 @@
-//! dynamics stage.
+//! Dynamics stage: explicit central-difference time integration of the impeller and the
+//! casing with forward-increment Lagrange-multiplier contact and Coulomb friction
+//! (Carpenter, Taylor & Katona 1991; Batailly & Legrand 2015 §3).
+//!
+//! - [`numerics`]: time step, Newton tolerance, kernel choice, decimation;
+//! - [`structure`]: a cyclic ROM frozen at Ω (eigenpairs, damping, stability limit, assembly);
+//! - [`kernel`]: the two interchangeable linear-algebra kernels ([`modal`] fast, [`dense`] reference);
+//! - [`contact_solve`]: contact rows, `W = G A⁻¹ Fᵀ`, active-set solve;
+//! - [`scenario`]: the case definition (speed, friction, casing load, clearances);
+//! - [`simulate`]: the time loop; [`probes`]: the recorded output;
+//! - [`abradable`]: the abradable coating's elastoplastic elements;
+//! - [`synthetic`]: synthetic ROMs (test and benchmark fixture); [`bench`]: time-step benchmark.
 
 pub mod abradable;
+pub mod bench;
+pub mod contact_solve;
+pub mod dense;
+pub mod kernel;
+pub mod modal;
+pub mod numerics;
+pub mod probes;
+pub mod scenario;
+pub mod simulate;
+pub mod structure;
+pub mod synthetic;
+
+pub use numerics::{KernelChoice, Numerics};
+pub use probes::SimulationOutput;
+pub use scenario::{Case, CasingModel, InitialVelocity, LobeLoad, RigidCasing, RigidShape};
+pub use simulate::{SimError, simulate};

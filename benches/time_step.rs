@@ -1,0 +1,36 @@
+//! µs per time step at paper scale (casing N = 100, M = 5, 10 modes/ND; impeller N_b = 10,
+//! 5 tip nodes, 10 modes/ND; synthetic ROMs), single thread, fast vs dense kernel, free flight
+//! and with the trailing-edge row in contact. Needs in Cargo.toml:
+//! `[[bench]] name = "time_step" harness = false`.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use rubscan::dynamics::KernelChoice;
+use rubscan::dynamics::bench::bench_paper_scale;
+
+fn time_step(c: &mut Criterion) {
+    faer::set_global_parallelism(faer::Par::Seq);
+    let mut g = c.benchmark_group("time_step_paper_scale");
+    g.sample_size(10);
+    for (kernel, steps) in [
+        (KernelChoice::Fast, 5000),
+        (KernelChoice::DenseReference, 50),
+    ] {
+        for contact in [false, true] {
+            let name = format!("{kernel:?}/{}", if contact { "contact" } else { "free" });
+            g.bench_function(&name, |b| {
+                b.iter_custom(|iters| {
+                    let mut total = 0.0;
+                    for _ in 0..iters {
+                        let r = bench_paper_scale(kernel, contact, steps).expect("bench run");
+                        total += r.us_per_step * 1e-6;
+                    }
+                    std::time::Duration::from_secs_f64(total)
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, time_step);
+criterion_main!(benches);

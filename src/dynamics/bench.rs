@@ -1,0 +1,164 @@
+//! Per-step timing of the simulation at a given model size (called by `benches/time_step.rs`
+//! and usable from the CLI): wall-clock µs per time step, single thread.
+
+use crate::dynamics::numerics::{KernelChoice, Numerics};
+use crate::dynamics::scenario::{Case, CasingModel, InitialVelocity};
+use crate::dynamics::simulate::{SimError, simulate};
+use crate::dynamics::structure::Structure;
+use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+use crate::model::rom::CyclicRom;
+
+/// Result of [`bench_time_step`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct BenchResult {
+    /// Wall-clock time per step (µs), setup excluded.
+    pub us_per_step: f64,
+    /// Fraction of (step × blade-tip node) pairs with a positive contact force.
+    pub contact_fraction: f64,
+    pub n_steps: usize,
+}
+
+/// Times `steps` steps of `impeller` in the flexible `casing` at Ω = `omega`, with the kernel
+/// `kernel`; `contact_offset` (m) is added to the blade tips' radius on the trailing-edge row
+/// (enough to overlap the casing puts that row in permanent contact). Only the stepping loop is
+/// timed (`SimulationOutput::loop_seconds`); probes are recorded every step (decimation 1).
+pub fn bench_time_step(
+    impeller: &CyclicRom,
+    casing: &CyclicRom,
+    omega: f64,
+    kernel: KernelChoice,
+    contact_offset: f64,
+    steps: usize,
+) -> Result<BenchResult, SimError> {
+    let h = 0.5
+        * Structure::new(impeller, omega)?
+            .stability_limit()
+            .min(Structure::new(casing, 0.0)?.stability_limit())
+            .min(2e-7);
+    let rows = impeller
+        .contact_nodes
+        .iter()
+        .map(|c| c.row)
+        .max()
+        .unwrap_or(0)
+        + 1;
+    let mut offs = vec![0.0; rows];
+    offs[rows - 1] = contact_offset;
+    let casing = CasingModel::Flexible(casing.clone());
+    let case = Case {
+        omega,
+        duration: steps as f64 * h,
+        friction: 0.1,
+        load: None,
+        clearance_offset: offs,
+        casing_probes: vec![],
+        initial_velocity: InitialVelocity::default(),
+        numerics: Numerics {
+            time_step: h,
+            kernel,
+            decimation: 1,
+            ..Default::default()
+        },
+    };
+    let out = simulate(&case, impeller, &casing, None)?;
+    let nodes = (impeller.n_sectors * impeller.n_contact()) as f64;
+    let in_contact = out
+        .blade_normal_force
+        .iter()
+        .flatten()
+        .filter(|&&f| f > 0.0)
+        .count() as f64
+        / (out.time.len().max(1) as f64 * nodes);
+    Ok(BenchResult {
+        us_per_step: out.loop_seconds / out.n_steps.max(1) as f64 * 1e6,
+        contact_fraction: in_contact,
+        n_steps: out.n_steps,
+    })
+}
+
+/// [`bench_time_step`] on the paper-scale synthetic models (casing N = 100, M = 5, 10 modes/ND;
+/// impeller N_b = 10, 5 tip nodes, 10 modes/ND) at Ω = 1000 rad/s.
+pub fn bench_paper_scale(
+    kernel: KernelChoice,
+    contact: bool,
+    steps: usize,
+) -> Result<BenchResult, SimError> {
+    let imp = synthetic_rom(&SyntheticSpec::paper_impeller());
+    let cas = synthetic_rom(&SyntheticSpec::paper_casing());
+    let off = if contact {
+        1.5 * SyntheticSpec::paper_impeller().clearance
+    } else {
+        0.0
+    };
+    bench_time_step(&imp, &cas, 1000.0, kernel, off, steps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    #[ignore = "timing; run with --ignored --nocapture"]
+    fn print_paper_scale_timings() {
+        faer::set_global_parallelism(faer::Par::Seq);
+        let li = Structure::new(&synthetic_rom(&SyntheticSpec::paper_impeller()), 1000.0).unwrap();
+        let lc = Structure::new(&synthetic_rom(&SyntheticSpec::paper_casing()), 0.0).unwrap();
+        println!(
+            "limits: impeller {:e} s, casing {:e} s",
+            li.stability_limit(),
+            lc.stability_limit()
+        );
+        for (kernel, steps) in [
+            (KernelChoice::Fast, 20000),
+            (KernelChoice::DenseReference, 100),
+        ] {
+            for contact in [false, true] {
+                let r = bench_paper_scale(kernel, contact, steps).unwrap();
+                println!(
+                    "{kernel:?} contact={contact}: {:.2} µs/step, contact fraction {:.3}",
+                    r.us_per_step, r.contact_fraction
+                );
+            }
+        }
+    }
+
+    #[test]
+    #[ignore = "timing; run with --ignored --nocapture"]
+    fn print_fast_contact_timing() {
+        for (kernel, steps) in [
+            (KernelChoice::Fast, 100),
+            (KernelChoice::DenseReference, 100),
+            (KernelChoice::Fast, 2000),
+        ] {
+            let r = bench_paper_scale(kernel, true, steps).unwrap();
+            println!(
+                "{kernel:?} contact {steps}: {:.2} µs/step, contact fraction {:.3}",
+                r.us_per_step, r.contact_fraction
+            );
+        }
+    }
+
+    #[test]
+    #[ignore = "timing; run with --ignored --nocapture"]
+    fn print_small_timings() {
+        let imp = synthetic_rom(&SyntheticSpec::small(
+            crate::model::rom::Component::Impeller,
+            4,
+            2,
+            2,
+        ));
+        let cas = synthetic_rom(&SyntheticSpec::small(
+            crate::model::rom::Component::Casing,
+            8,
+            3,
+            2,
+        ));
+        for off in [0.0, 1.5e-4] {
+            let r = bench_time_step(&imp, &cas, 1500.0, KernelChoice::Fast, off, 20000).unwrap();
+            println!(
+                "small off={off}: {:.2} µs/step, contact fraction {:.3}",
+                r.us_per_step, r.contact_fraction
+            );
+        }
+    }
+}

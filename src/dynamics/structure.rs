@@ -1,0 +1,387 @@
+//! A cyclic ROM frozen at one rotation speed Ω: per-nodal-diameter real-form matrices,
+//! mass-normalized eigenpairs, damping, the explicit stability limit, and the assembled
+//! physical ROM used by the dense reference kernel.
+//!
+//! # Harmonic coordinates
+//! For nodal diameter `k` the real-form vector is `x_k = [a (n); b (n)]` (only `a` for
+//! `k = 0` and `k = N/2`), `n = 3 n_c + n_m`, in the convention of `model::rom`: each part
+//! is `[boundary DOFs (3 n_c); modal coordinates (n_m)]`. The boundary parts are the
+//! orthonormal real DFT over sectors of the physical boundary DOFs (ARCH brief):
+//! `a_k = w_k Σ_s cos(kθ_s) u_s`, `b_k = w_k Σ_s sin(kθ_s) u_s`, `w_k = N^{-1/2}` for the real
+//! harmonics and `(2/N)^{1/2}` otherwise. The map physical → harmonic is therefore orthogonal,
+//! and `M_phys = Pᵀ blockdiag(M_k) P` (same for K, D).
+//!
+//! # Damping
+//! Both kernels use the same damping matrix, chosen so that the eigenvectors of `(K(Ω), M)`
+//! diagonalise it (the fast kernel relies on it): modal damping `c_p = 2 ζ ω_p`;
+//! Rayleigh `c_p = α + β ω_p²`, i.e. `D = α M + β K(Ω)`. For the impeller at Ω ≠ 0 this
+//! differs from the ROM's literal `α M + β K0` by `β Ω² K1 (+ β Ω⁴ K2)` — a deliberate,
+//! documented choice that keeps the damping modal.
+//!
+//! # Stability
+//! Central differences with the centred damping term `D/2h` have the characteristic
+//! polynomial `(1 + c h/2) z² − (2 − ω² h²) z + (1 − c h/2)` per mode; its roots lie in the
+//! unit disc iff `ω h < 2`, whatever `c ≥ 0`. Hence `h_crit = 2/ω_max` exactly, with or without
+//! damping; `h ≥ h_crit` is refused.
+
+use crate::model::rom::{CyclicRom, Damping, RomError};
+use faer::{Mat, Side};
+use nalgebra::DMatrix;
+use thiserror::Error;
+
+/// Errors when freezing a ROM at a rotation speed.
+#[derive(Debug, Error, PartialEq)]
+pub enum StructureError {
+    #[error("ROM `{name}` is invalid: {source}")]
+    Rom { name: String, source: RomError },
+    #[error("ROM `{name}`, nodal diameter {k}: eigen-decomposition failed ({reason})")]
+    Eigen {
+        name: String,
+        k: usize,
+        reason: String,
+    },
+    #[error(
+        "ROM `{name}`, nodal diameter {k}: K(Ω = {omega} rad/s) is not positive semi-definite (eigenvalue {lambda:.4e} (rad/s)²)"
+    )]
+    Indefinite {
+        name: String,
+        k: usize,
+        omega: f64,
+        lambda: f64,
+    },
+    #[error("rotation speed Ω = {0} rad/s must be finite")]
+    BadOmega(f64),
+}
+
+/// One nodal diameter of a [`Structure`].
+#[derive(Clone, Debug)]
+pub struct NdBlock {
+    /// Nodal diameter k.
+    pub k: usize,
+    /// True for k = 0 and k = N/2 (only the `a` part exists).
+    pub real: bool,
+    /// Size of one part, `3 n_c + n_m`.
+    pub n: usize,
+    /// Number of fixed-interface modal coordinates `n_m`.
+    pub n_modes: usize,
+    /// Real-form order, `n` or `2n`.
+    pub dim: usize,
+    /// Real-form mass (kg), stiffness K(Ω) (N/m) and damping (N·s/m) matrices, `dim × dim`.
+    pub mass: DMatrix<f64>,
+    pub stiffness: DMatrix<f64>,
+    pub damping: DMatrix<f64>,
+    /// Mass-normalized eigenvectors (columns, `Φᵀ M Φ = I`), sorted by ascending frequency.
+    pub modes: DMatrix<f64>,
+    /// Natural circular frequencies ω_p (rad/s), ascending.
+    pub omega: Vec<f64>,
+    /// Modal damping coefficients `c_p` (1/s): the mode obeys `η̈ + c_p η̇ + ω_p² η = φ_pᵀ f`.
+    pub damping_coef: Vec<f64>,
+    /// Offset of this block in the flat modal-coordinate vector of the structure.
+    pub offset: usize,
+}
+
+impl NdBlock {
+    /// Row indices (in the real form) of the boundary DOFs: `0..nb` and, if complex, `n..n+nb`.
+    pub fn boundary_rows(&self, nb: usize) -> impl Iterator<Item = usize> + '_ {
+        let n = self.n;
+        (0..nb).chain(if self.real { 0..0 } else { n..n + nb })
+    }
+}
+
+/// A cyclic ROM at one rotation speed, ready for time integration.
+#[derive(Clone, Debug)]
+pub struct Structure {
+    /// Name of the ROM.
+    pub name: String,
+    /// Number of sectors N.
+    pub n_sectors: usize,
+    /// Boundary DOFs per sector, `3 n_c`.
+    pub n_boundary: usize,
+    /// Rotation speed Ω (rad/s) at which K(Ω) was evaluated (0 for a casing).
+    pub omega_rot: f64,
+    /// Per nodal diameter, k = 0..=N/2.
+    pub blocks: Vec<NdBlock>,
+    /// Total number of modal coordinates (= number of DOFs of the assembled physical ROM).
+    pub n_modal: usize,
+    /// Largest natural circular frequency (rad/s).
+    pub omega_max: f64,
+}
+
+/// Generalized symmetric-definite eigenproblem `K x = λ M x` by the Cholesky route (faer):
+/// eigenvalues ascending, eigenvectors mass-normalized.
+pub fn generalized_eigen(
+    k: &DMatrix<f64>,
+    m: &DMatrix<f64>,
+) -> Result<(Vec<f64>, DMatrix<f64>), String> {
+    let n = k.nrows();
+    let mf = Mat::<f64>::from_fn(n, n, |i, j| 0.5 * (m[(i, j)] + m[(j, i)]));
+    let kf = Mat::<f64>::from_fn(n, n, |i, j| 0.5 * (k[(i, j)] + k[(j, i)]));
+    let llt = mf
+        .llt(Side::Lower)
+        .map_err(|e| format!("mass Cholesky: {e:?}"))?;
+    let l = llt.L();
+    let mut c = kf.clone();
+    l.solve_lower_triangular_in_place(c.as_mut());
+    let mut c2 = c.transpose().to_owned();
+    l.solve_lower_triangular_in_place(c2.as_mut());
+    // Symmetrize against round-off before the self-adjoint solver reads the lower triangle.
+    let c3 = Mat::<f64>::from_fn(n, n, |i, j| 0.5 * (c2[(i, j)] + c2[(j, i)]));
+    let ev = c3
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|e| format!("{e:?}"))?;
+    let mut x = ev.U().to_owned();
+    l.transpose().solve_upper_triangular_in_place(x.as_mut());
+    let s = ev.S().column_vector();
+    let lambdas: Vec<f64> = (0..n).map(|i| s[i]).collect();
+    let phi = DMatrix::from_fn(n, n, |i, j| x[(i, j)]);
+    Ok((lambdas, phi))
+}
+
+impl Structure {
+    /// Freezes `rom` at rotation speed `omega` (rad/s): K(Ω), damping, per-ND eigenpairs.
+    pub fn new(rom: &CyclicRom, omega: f64) -> Result<Self, StructureError> {
+        if !omega.is_finite() {
+            return Err(StructureError::BadOmega(omega));
+        }
+        rom.validate().map_err(|source| StructureError::Rom {
+            name: rom.name.clone(),
+            source,
+        })?;
+        let nb = rom.n_boundary();
+        let mut blocks = Vec::with_capacity(rom.harmonics.len());
+        let mut offset = 0;
+        let mut omega_max: f64 = 0.0;
+        for h in &rom.harmonics {
+            let k = h.nodal_diameter;
+            let real = rom.is_real_harmonic(k);
+            let n = nb + h.n_modes;
+            let dim = if real { n } else { 2 * n };
+            let mass = h.mass.real_form(real);
+            let stiffness = h.stiffness_at(omega).real_form(real);
+            let (lambdas, modes) =
+                generalized_eigen(&stiffness, &mass).map_err(|reason| StructureError::Eigen {
+                    name: rom.name.clone(),
+                    k,
+                    reason,
+                })?;
+            let lmax = lambdas.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+            let mut om = Vec::with_capacity(dim);
+            for &l in &lambdas {
+                if l < -1e-9 * lmax.max(1.0) {
+                    return Err(StructureError::Indefinite {
+                        name: rom.name.clone(),
+                        k,
+                        omega,
+                        lambda: l,
+                    });
+                }
+                om.push(l.max(0.0).sqrt());
+            }
+            let damping_coef: Vec<f64> = om
+                .iter()
+                .map(|&w| match rom.damping {
+                    Damping::Modal { ratio } => 2.0 * ratio * w,
+                    Damping::Rayleigh { alpha, beta } => alpha + beta * w * w,
+                })
+                .collect();
+            // D = M Φ diag(c) Φᵀ M, so that Φᵀ D Φ = diag(c).
+            let mphi = &mass * &modes;
+            let mut scaled = mphi.clone();
+            for (j, c) in damping_coef.iter().enumerate() {
+                scaled.column_mut(j).scale_mut(*c);
+            }
+            let damping = &scaled * mphi.transpose();
+            omega_max = omega_max.max(om.iter().cloned().fold(0.0, f64::max));
+            blocks.push(NdBlock {
+                k,
+                real,
+                n,
+                n_modes: h.n_modes,
+                dim,
+                mass,
+                stiffness,
+                damping,
+                modes,
+                omega: om,
+                damping_coef,
+                offset,
+            });
+            offset += dim;
+        }
+        Ok(Self {
+            name: rom.name.clone(),
+            n_sectors: rom.n_sectors,
+            n_boundary: nb,
+            omega_rot: omega,
+            blocks,
+            n_modal: offset,
+            omega_max,
+        })
+    }
+
+    /// Explicit stability limit `h_crit = 2/ω_max` (s); infinite for a structure without stiffness.
+    pub fn stability_limit(&self) -> f64 {
+        if self.omega_max > 0.0 {
+            2.0 / self.omega_max
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Weight `w_k` of the orthonormal real DFT (ARCH brief).
+    pub fn dft_weight(&self, k: usize) -> f64 {
+        let n = self.n_sectors as f64;
+        if self.blocks[k].real {
+            n.powf(-0.5)
+        } else {
+            (2.0 / n).sqrt()
+        }
+    }
+
+    /// Offset of nodal diameter `k`'s modal coordinates in the assembled physical DOF vector.
+    pub fn physical_modal_offset(&self, k: usize) -> usize {
+        self.n_sectors * self.n_boundary
+            + self.blocks[..k]
+                .iter()
+                .map(|b| b.n_modes * if b.real { 1 } else { 2 })
+                .sum::<usize>()
+    }
+
+    /// Orthogonal map `P` from the assembled physical DOF vector (ARCH ordering) to the
+    /// concatenated harmonic real-form vectors `[x_0; x_1; …]` (offsets `NdBlock::offset`).
+    pub fn physical_to_harmonic(&self) -> DMatrix<f64> {
+        let n = self.n_modal;
+        let nb = self.n_boundary;
+        let ns = self.n_sectors;
+        let mut p = DMatrix::zeros(n, n);
+        let alpha = 2.0 * std::f64::consts::PI / ns as f64;
+        for b in &self.blocks {
+            let w = self.dft_weight(b.k);
+            let moff = self.physical_modal_offset(b.k);
+            let parts = if b.real { 1 } else { 2 };
+            for part in 0..parts {
+                let row0 = b.offset + part * b.n;
+                for s in 0..ns {
+                    let th = (b.k * s) as f64 * alpha;
+                    let f = if part == 0 { th.cos() } else { th.sin() };
+                    for r in 0..nb {
+                        p[(row0 + r, s * nb + r)] = w * f;
+                    }
+                }
+                for m in 0..b.n_modes {
+                    p[(row0 + nb + m, moff + part * b.n_modes + m)] = 1.0;
+                }
+            }
+        }
+        p
+    }
+
+    /// Assembled physical mass, stiffness K(Ω) and damping matrices (ARCH ordering),
+    /// `Pᵀ blockdiag(·_k) P`.
+    pub fn assemble_physical(&self) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+        // P is sparse (a boundary harmonic row has N entries, a modal row one): form
+        // Pᵀ X P row by row instead of with dense products (O(N² n_b n) instead of O(n³)).
+        let p = self.physical_to_harmonic();
+        let n = self.n_modal;
+        let rows: Vec<Vec<(usize, f64)>> = (0..n)
+            .map(|r| {
+                (0..n)
+                    .filter(|&c| p[(r, c)] != 0.0)
+                    .map(|c| (c, p[(r, c)]))
+                    .collect()
+            })
+            .collect();
+        let assemble = |pick: usize| {
+            // Y = X P (row-major rows of length n), then Pᵀ Y.
+            let mut y = vec![0.0; n * n];
+            for b in &self.blocks {
+                let x = match pick {
+                    0 => &b.mass,
+                    1 => &b.stiffness,
+                    _ => &b.damping,
+                };
+                for r in 0..b.dim {
+                    let yr = &mut y[(b.offset + r) * n..(b.offset + r + 1) * n];
+                    for c in 0..b.dim {
+                        let v = x[(r, c)];
+                        if v != 0.0 {
+                            for &(j, pv) in &rows[b.offset + c] {
+                                yr[j] += v * pv;
+                            }
+                        }
+                    }
+                }
+            }
+            let mut out = DMatrix::zeros(n, n);
+            for (r, row) in rows.iter().enumerate() {
+                let yr = &y[r * n..(r + 1) * n];
+                for &(i, pv) in row {
+                    for (j, yv) in yr.iter().enumerate() {
+                        out[(i, j)] += pv * yv;
+                    }
+                }
+            }
+            out
+        };
+        (assemble(0), assemble(1), assemble(2))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+    use crate::model::rom::Component;
+
+    #[test]
+    fn eigenpairs_are_mass_normalized_and_solve_the_problem() {
+        let rom = synthetic_rom(&SyntheticSpec {
+            damping: crate::model::rom::Damping::Modal { ratio: 0.01 },
+            ..SyntheticSpec::small(Component::Impeller, 5, 2, 3)
+        });
+        let st = Structure::new(&rom, 300.0).unwrap();
+        for b in &st.blocks {
+            let id = b.modes.transpose() * &b.mass * &b.modes;
+            assert!((id - DMatrix::identity(b.dim, b.dim)).amax() < 1e-10);
+            let kk = b.modes.transpose() * &b.stiffness * &b.modes;
+            for p in 0..b.dim {
+                let w2 = b.omega[p] * b.omega[p];
+                assert!((kk[(p, p)] - w2).abs() < 1e-9 * st.omega_max.powi(2));
+            }
+            let dd = b.modes.transpose() * &b.damping * &b.modes;
+            for p in 0..b.dim {
+                assert!((dd[(p, p)] - b.damping_coef[p]).abs() < 1e-9 * b.damping_coef[b.dim - 1]);
+            }
+            assert!(b.omega.windows(2).all(|w| w[0] <= w[1]));
+        }
+        assert!((st.stability_limit() - 2.0 / st.omega_max).abs() < 1e-20);
+    }
+
+    #[test]
+    fn harmonic_map_is_orthogonal_and_physical_matrices_are_block_circulant() {
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 6, 2, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let p = st.physical_to_harmonic();
+        let n = st.n_modal;
+        assert!((p.transpose() * &p - DMatrix::identity(n, n)).amax() < 1e-12);
+        let (m, k, _) = st.assemble_physical();
+        let nb = st.n_boundary;
+        // Boundary blocks depend only on the sector offset (local frames).
+        for s1 in 0..6 {
+            for s2 in 0..6 {
+                let (t1, t2) = ((s1 + 1) % 6, (s2 + 1) % 6);
+                for i in 0..nb {
+                    for j in 0..nb {
+                        let a = k[(s1 * nb + i, s2 * nb + j)];
+                        let b = k[(t1 * nb + i, t2 * nb + j)];
+                        assert!((a - b).abs() < 1e-9 * k.amax());
+                        let a = m[(s1 * nb + i, s2 * nb + j)];
+                        let b = m[(t1 * nb + i, t2 * nb + j)];
+                        assert!((a - b).abs() < 1e-9 * m.amax());
+                    }
+                }
+            }
+        }
+        assert!((&k - k.transpose()).amax() < 1e-9 * k.amax());
+    }
+}
