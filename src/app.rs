@@ -8,8 +8,11 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
+use crate::dynamics::structure::Structure;
 use crate::io::rom_file;
-use crate::model::build::{BuildError, CasingSpec, ImpellerSpec, ModelSpec, build_casing, build_impeller};
+use crate::model::build::{
+    BuildError, CasingSpec, ImpellerSpec, ModelSpec, build_casing, build_impeller,
+};
 use crate::model::rom::{CyclicRom, ROM_FORMAT_VERSION};
 use crate::sweep::planner::{canonical_json, fnv1a64};
 
@@ -33,6 +36,23 @@ pub fn describe_rom(rom: &CyclicRom) -> String {
         rom.n_dofs()
     );
     let _ = writeln!(s, "damping: {:?}", rom.damping);
+    let speeds = rom
+        .modal_data
+        .first()
+        .map_or(vec![0.0], |m| m.omega.clone());
+    for omega in [
+        speeds.first().copied().unwrap_or(0.0),
+        speeds.last().copied().unwrap_or(0.0),
+    ] {
+        if let Ok(st) = Structure::new(rom, omega) {
+            let _ = writeln!(
+                s,
+                "Ω = {omega:.1} rad/s: highest ROM frequency {:.4e} rad/s, explicit stability limit h < 2/ω_max = {:.4e} s",
+                st.omega_max,
+                st.stability_limit()
+            );
+        }
+    }
     for md in &rom.modal_data {
         for (i, omega) in md.omega.iter().enumerate() {
             if i != 0 && i + 1 != md.omega.len() {
@@ -57,9 +77,13 @@ pub fn describe_rom(rom: &CyclicRom) -> String {
 
 /// Reads a model spec file (JSON, unknown fields rejected); `None` gives the built-in defaults.
 pub fn read_model_spec(path: Option<&Path>) -> Result<ModelSpec> {
-    let Some(path) = path else { return Ok(ModelSpec::default()) };
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let value: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}: malformed JSON", path.display()))?;
+    let Some(path) = path else {
+        return Ok(ModelSpec::default());
+    };
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let value: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: malformed JSON", path.display()))?;
     ModelSpec::from_json(value).with_context(|| path.display().to_string())
 }
 
@@ -72,12 +96,19 @@ pub fn cache_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
         return PathBuf::from(d).join("rubscan");
     }
-    std::env::var_os("HOME").map_or_else(|| PathBuf::from(".rubscan-cache"), |h| PathBuf::from(h).join(".cache/rubscan"))
+    std::env::var_os("HOME").map_or_else(
+        || PathBuf::from(".rubscan-cache"),
+        |h| PathBuf::from(h).join(".cache/rubscan"),
+    )
 }
 
 /// Loads a ROM from the cache, or builds it with `build` and stores it. The key hashes the
 /// component spec, the rubscan version and the ROM format version, so any change rebuilds.
-fn cached_rom<S: serde::Serialize>(kind: &str, spec: &S, build: impl FnOnce(&S) -> Result<CyclicRom, BuildError>) -> Result<(CyclicRom, bool)> {
+fn cached_rom<S: serde::Serialize>(
+    kind: &str,
+    spec: &S,
+    build: impl FnOnce(&S) -> Result<CyclicRom, BuildError>,
+) -> Result<(CyclicRom, bool)> {
     let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION });
     let hash = fnv1a64(canonical_json(&key).as_bytes());
     let path = cache_dir().join(format!("{kind}-{hash:016x}.rom"));
