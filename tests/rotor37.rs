@@ -174,9 +174,13 @@ fn rotor37_reduced_frequencies_match_calculix() {
 
 /// Import + reduction only, on an existing CalculiX run (`$RUBSCAN_ROTOR37_RUN`, default
 /// `/tmp/r37`), to time it: `/usr/bin/time -v <test binary> --ignored --exact rotor37_import_timing`.
+/// With `RUBSCAN_SEQUENTIAL` set, faer runs single-threaded.
 #[test]
 #[ignore]
 fn rotor37_import_timing() {
+    if std::env::var_os("RUBSCAN_SEQUENTIAL").is_some() {
+        faer::set_global_parallelism(faer::Par::Seq);
+    }
     let run = std::env::var_os("RUBSCAN_ROTOR37_RUN")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from("/tmp/r37"));
