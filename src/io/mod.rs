@@ -1,5 +1,7 @@
 //! Input and output: the only stage that touches the file system.
 
+pub mod calculix;
+pub mod matrix_market;
 pub mod parquet;
 pub mod plots;
 pub mod rom_file;

@@ -1,7 +1,8 @@
 //! Model building: finite elements, built-in parametric geometry, cyclic symmetry,
-//! Craig–Bampton reduction and the reduced-order model (ROM) type.
+//! Craig–Bampton reduction (cyclic and single-component) and the reduced-order model (ROM) type.
 
 pub mod build;
+pub mod component;
 pub mod cyclic;
 pub mod fe;
 pub mod mesh;

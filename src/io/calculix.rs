@@ -1,0 +1,858 @@
+//! Import of CalculiX models (DESIGN §2.4): the matrix storage output of
+//! `*FREQUENCY, SOLVER=MATRIXSTORAGE` (`job.sti`, `job.mas`, `job.dof`) and node coordinates
+//! and node sets from the input deck (`*NODE`, `*NSET`, `*INCLUDE`), then Craig–Bampton
+//! reduction with [`crate::model::component::reduce_component`].
+//!
+//! # File formats (as written by CalculiX 2.x, checked on the Rotor 37 deck)
+//! - `.sti` / `.mas`: one stored entry per line, `row col value`, 1-based, one triangle only
+//!   (CalculiX writes `row ≤ col`, column by column), diagonal included, no header. The
+//!   reader accepts either triangle but not a mixture, mirrors it to full storage, and
+//!   requires every diagonal entry (a missing one means a truncated or corrupt file).
+//!   Clamped DOFs (`*BOUNDARY`) are not in the stored matrices.
+//! - `.dof`: one line per matrix row, `node.direction` (direction 1, 2, 3 = x, y, z).
+//! - input deck: `*NODE[, NSET=name]` blocks `id, x, y, z`; `*NSET, NSET=name[, GENERATE]`
+//!   blocks (ids or names of earlier sets, or `first, last[, step]`);
+//!   `*INCLUDE, INPUT=file` (resolved relative to the including file's folder). Keywords and
+//!   set names are case-insensitive; `**` starts a comment line.
+//!
+//! Every reader streams its file line by line and every error names the file and, where it
+//! applies, the 1-based line.
+
+use crate::model::component::{
+    ComponentError, ComponentMatrices, ComponentReductionOptions, ContactPoint, NodeDof,
+    reduce_component, sparse_from_entries,
+};
+use crate::model::rom::{Component, CyclicRom, Damping};
+use faer::sparse::SparseColMat;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Why an import failed; every variant names the file (and the line where it applies).
+#[derive(Debug, Error)]
+pub enum ImportError {
+    #[error("{}: cannot read: {source}", file.display())]
+    Io {
+        file: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}:{line}: {reason}", file.display())]
+    Line {
+        file: PathBuf,
+        line: usize,
+        reason: String,
+    },
+    #[error("{}: {reason}", file.display())]
+    File { file: PathBuf, reason: String },
+    #[error("import specification: {0}")]
+    Spec(String),
+    #[error("reduction: {0}")]
+    Reduction(#[from] ComponentError),
+    #[error("the reduced model is invalid: {0}")]
+    Rom(#[from] crate::model::rom::RomError),
+}
+
+impl ImportError {
+    pub(crate) fn line(file: &Path, line: usize, reason: impl Into<String>) -> Self {
+        ImportError::Line {
+            file: file.to_path_buf(),
+            line,
+            reason: reason.into(),
+        }
+    }
+    pub(crate) fn file(file: &Path, reason: impl Into<String>) -> Self {
+        ImportError::File {
+            file: file.to_path_buf(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// Unit system of the imported files; everything is converted to SI on reading.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Units {
+    /// N, mm, tonne, s (CalculiX/Abaqus "mm" system): K in N/mm, M in t, lengths in mm.
+    #[serde(rename = "mm-t-s")]
+    MmTonneSecond,
+    /// N, m, kg, s.
+    #[serde(rename = "si")]
+    Si,
+}
+
+impl Units {
+    /// Factor from file stiffness units to N/m (N/mm → N/m: 1e3).
+    pub fn stiffness_factor(self) -> f64 {
+        match self {
+            Units::MmTonneSecond => 1e3,
+            Units::Si => 1.0,
+        }
+    }
+    /// Factor from file mass units to kg (t → kg: 1e3).
+    pub fn mass_factor(self) -> f64 {
+        match self {
+            Units::MmTonneSecond => 1e3,
+            Units::Si => 1.0,
+        }
+    }
+    /// Factor from file lengths to m (mm → m: 1e-3).
+    pub fn length_factor(self) -> f64 {
+        match self {
+            Units::MmTonneSecond => 1e-3,
+            Units::Si => 1.0,
+        }
+    }
+}
+
+/// Streams a text file line by line into a reused buffer, counting lines.
+pub(crate) struct LineReader {
+    pub path: PathBuf,
+    reader: BufReader<File>,
+    buf: Vec<u8>,
+    /// 1-based number of the line last returned.
+    pub line: usize,
+    /// Whether the line last returned ended with a newline (false: last line of a file
+    /// cut short, or a file written without a final newline).
+    pub complete: bool,
+}
+
+impl LineReader {
+    pub fn open(path: &Path) -> Result<Self, ImportError> {
+        let file = File::open(path).map_err(|source| ImportError::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            reader: BufReader::with_capacity(1 << 20, file),
+            buf: Vec::with_capacity(256),
+            line: 0,
+            complete: true,
+        })
+    }
+
+    /// The next line without its end-of-line characters, or `None` at the end of the file.
+    pub fn next_line(&mut self) -> Result<Option<Line<'_>>, ImportError> {
+        self.buf.clear();
+        let n = self
+            .reader
+            .read_until(b'\n', &mut self.buf)
+            .map_err(|source| ImportError::Io {
+                file: self.path.clone(),
+                source,
+            })?;
+        if n == 0 {
+            return Ok(None);
+        }
+        self.line += 1;
+        self.complete = self.buf.last() == Some(&b'\n');
+        while matches!(self.buf.last(), Some(b'\n' | b'\r')) {
+            self.buf.pop();
+        }
+        let text = std::str::from_utf8(&self.buf)
+            .map_err(|_| ImportError::line(&self.path, self.line, "not valid UTF-8 text"))?;
+        Ok(Some(Line {
+            text,
+            no: self.line,
+            complete: self.complete,
+            path: &self.path,
+        }))
+    }
+
+    /// An error at the line last read.
+    pub fn err(&self, reason: impl Into<String>) -> ImportError {
+        ImportError::line(&self.path, self.line, reason)
+    }
+}
+
+/// One line of a file, with what an error message needs.
+pub(crate) struct Line<'a> {
+    pub text: &'a str,
+    /// 1-based line number.
+    pub no: usize,
+    /// Whether the line ended with a newline.
+    pub complete: bool,
+    path: &'a Path,
+}
+
+impl Line<'_> {
+    pub fn err(&self, reason: impl Into<String>) -> ImportError {
+        ImportError::line(self.path, self.no, reason)
+    }
+}
+
+/// Parses a 1-based index in `1..=n` and returns it 0-based.
+pub(crate) fn parse_index(tok: Option<&str>, n: usize, what: &str) -> Result<usize, String> {
+    let tok = tok.ok_or_else(|| format!("missing {what}"))?;
+    let i: usize = tok
+        .parse()
+        .map_err(|_| format!("{what} '{tok}' is not a positive integer"))?;
+    if i == 0 || i > n {
+        return Err(format!("{what} {i} out of range 1..={n}"));
+    }
+    Ok(i - 1)
+}
+
+/// Parses a finite floating-point value.
+pub(crate) fn parse_value(tok: Option<&str>, what: &str) -> Result<f64, String> {
+    let tok = tok.ok_or_else(|| format!("missing {what}"))?;
+    let v: f64 = tok
+        .parse()
+        .map_err(|_| format!("{what} '{tok}' is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("{what} '{tok}' is not finite"));
+    }
+    Ok(v)
+}
+
+/// Accumulates entries of one triangle of a symmetric matrix, checking that they all lie
+/// in the same triangle, then builds the full matrix and checks its diagonal.
+pub(crate) struct TriangleBuilder {
+    n: usize,
+    entries: Vec<(u32, u32, f64)>,
+    /// `Some(true)`: upper (row ≤ col); decided by the first off-diagonal entry.
+    upper: Option<bool>,
+}
+
+impl TriangleBuilder {
+    pub fn new(n: usize, capacity: usize) -> Self {
+        Self {
+            n,
+            entries: Vec::with_capacity(capacity),
+            upper: None,
+        }
+    }
+
+    /// Adds entry (r, c) (0-based); `Err` if it lies in the other triangle than the previous ones.
+    pub fn push(&mut self, r: usize, c: usize, v: f64) -> Result<(), String> {
+        if r != c {
+            let up = r < c;
+            match self.upper {
+                None => self.upper = Some(up),
+                Some(u) if u != up => {
+                    return Err(format!(
+                        "entry ({}, {}) is in the {} triangle but earlier entries are in the {} one \
+                         (store one triangle of a symmetric matrix)",
+                        r + 1,
+                        c + 1,
+                        if up { "upper" } else { "lower" },
+                        if u { "upper" } else { "lower" }
+                    ));
+                }
+                _ => {}
+            }
+        }
+        self.entries.push((r as u32, c as u32, v));
+        Ok(())
+    }
+
+    /// Full-storage matrix scaled by `factor`; every diagonal entry must be present and positive.
+    pub fn finish(
+        mut self,
+        path: &Path,
+        factor: f64,
+    ) -> Result<SparseColMat<usize, f64>, ImportError> {
+        let mut diag = vec![false; self.n];
+        for e in self.entries.iter_mut() {
+            e.2 *= factor;
+            if e.0 == e.1 {
+                if e.2 <= 0.0 {
+                    return Err(ImportError::file(
+                        path,
+                        format!(
+                            "diagonal entry {} is {} ≤ 0: the matrix is not positive definite",
+                            e.0 + 1,
+                            e.2 / factor
+                        ),
+                    ));
+                }
+                diag[e.0 as usize] = true;
+            }
+        }
+        if let Some(i) = diag.iter().position(|d| !d) {
+            return Err(ImportError::file(
+                path,
+                format!(
+                    "no diagonal entry for row {} of {}: truncated or corrupt file",
+                    i + 1,
+                    self.n
+                ),
+            ));
+        }
+        sparse_from_entries(self.n, &self.entries, true)
+            .map_err(|e| ImportError::file(path, e.to_string()))
+    }
+}
+
+/// Reads a CalculiX `.dof` file (`node.direction` per line, direction 1..=3).
+pub fn read_dof_map(path: &Path) -> Result<Vec<NodeDof>, ImportError> {
+    let mut rd = LineReader::open(path)?;
+    let mut dofs = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    while let Some(l) = rd.next_line()? {
+        let line = l.text;
+        let t = line.trim();
+        if t.is_empty() {
+            continue;
+        }
+        let parsed = t.split_once('.').and_then(|(a, b)| {
+            Some((
+                a.trim().parse::<usize>().ok()?,
+                b.trim().parse::<usize>().ok()?,
+            ))
+        });
+        let Some((node, dir)) = parsed else {
+            return Err(l.err(format!("expected 'node.direction', found '{t}'")));
+        };
+        if !(1..=3).contains(&dir) {
+            return Err(l.err(format!(
+                "direction {dir} of node {node}: only displacements 1, 2, 3 (x, y, z) are supported"
+            )));
+        }
+        let d = NodeDof { node, dir: dir - 1 };
+        if !seen.insert(d) {
+            return Err(l.err(format!("DOF {node}.{dir} is listed twice")));
+        }
+        dofs.push(d);
+    }
+    if dofs.is_empty() {
+        return Err(ImportError::file(path, "no DOFs"));
+    }
+    Ok(dofs)
+}
+
+/// Reads a CalculiX matrix storage file (`.sti` or `.mas`) of order `n` (the length of the
+/// DOF map) and returns it in full storage, multiplied by `factor` (unit conversion).
+pub fn read_matrix_storage(
+    path: &Path,
+    n: usize,
+    factor: f64,
+) -> Result<SparseColMat<usize, f64>, ImportError> {
+    let mut rd = LineReader::open(path)?;
+    let size_hint = std::fs::metadata(path)
+        .map(|m| m.len() as usize / 34)
+        .unwrap_or(0);
+    let mut tri = TriangleBuilder::new(n, size_hint);
+    while let Some(l) = rd.next_line()? {
+        let line = l.text;
+        let mut it = line.split_ascii_whitespace();
+        let Some(first) = it.next() else {
+            continue;
+        };
+        if !l.complete {
+            return Err(l.err("last line has no end of line: truncated file"));
+        }
+        let parsed = (|| {
+            let r = parse_index(Some(first), n, "row")?;
+            let c = parse_index(it.next(), n, "column")?;
+            let v = parse_value(it.next(), "value")?;
+            if let Some(extra) = it.next() {
+                return Err(format!("unexpected extra field '{extra}'"));
+            }
+            Ok((r, c, v))
+        })();
+        let (r, c, v) = parsed.map_err(|e| l.err(format!("{e} (expected 'row col value')")))?;
+        tri.push(r, c, v).map_err(|e| l.err(e))?;
+    }
+    tri.finish(path, factor)
+}
+
+/// Nodes and node sets of a CalculiX input deck.
+#[derive(Clone, Debug, Default)]
+pub struct CalculixMesh {
+    /// Node id → coordinates in the file's length unit.
+    pub nodes: HashMap<usize, [f64; 3]>,
+    /// Upper-cased set name → node ids in file order.
+    pub node_sets: HashMap<String, Vec<usize>>,
+}
+
+/// Which block the deck reader is in.
+enum Block {
+    Node(Option<String>),
+    Nset { name: String, generate: bool },
+    Other,
+}
+
+/// Reads `*NODE` and `*NSET` data from a CalculiX deck, following `*INCLUDE`s.
+pub fn read_calculix_mesh(path: &Path) -> Result<CalculixMesh, ImportError> {
+    let mut mesh = CalculixMesh::default();
+    read_deck(path, &mut mesh, 0)?;
+    Ok(mesh)
+}
+
+/// `KEY=VALUE` parameter of a keyword line (key compared case-insensitively).
+fn keyword_param(parts: &[&str], key: &str) -> Option<String> {
+    parts.iter().find_map(|p| {
+        let (k, v) = p.split_once('=')?;
+        k.trim()
+            .eq_ignore_ascii_case(key)
+            .then(|| v.trim().to_string())
+    })
+}
+
+fn read_deck(path: &Path, mesh: &mut CalculixMesh, depth: usize) -> Result<(), ImportError> {
+    if depth > 16 {
+        return Err(ImportError::file(path, "*INCLUDE nested more than 16 deep"));
+    }
+    let mut rd = LineReader::open(path)?;
+    let mut block = Block::Other;
+    while let Some(l) = rd.next_line()? {
+        let line = l.text;
+        let t = line.trim();
+        if t.is_empty() || t.starts_with("**") {
+            continue;
+        }
+        if let Some(kw) = t.strip_prefix('*') {
+            let parts: Vec<&str> = kw.split(',').collect();
+            let name = parts[0].trim().to_ascii_uppercase();
+            block = match name.as_str() {
+                "NODE" => Block::Node(keyword_param(&parts, "NSET").map(|s| s.to_uppercase())),
+                "NSET" => {
+                    let Some(set) = keyword_param(&parts, "NSET") else {
+                        return Err(l.err("*NSET without NSET=name"));
+                    };
+                    let generate = parts[1..]
+                        .iter()
+                        .any(|p| p.trim().eq_ignore_ascii_case("GENERATE"));
+                    let set = set.to_uppercase();
+                    mesh.node_sets.entry(set.clone()).or_default();
+                    Block::Nset {
+                        name: set,
+                        generate,
+                    }
+                }
+                "INCLUDE" => {
+                    let Some(file) = keyword_param(&parts, "INPUT") else {
+                        return Err(l.err("*INCLUDE without INPUT=file"));
+                    };
+                    let file = file.trim_matches('"');
+                    let inc = path.parent().unwrap_or(Path::new(".")).join(file);
+                    read_deck(&inc, mesh, depth + 1)?;
+                    Block::Other
+                }
+                _ => Block::Other,
+            };
+            continue;
+        }
+        let fields: Vec<&str> = t
+            .split(',')
+            .map(str::trim)
+            .filter(|f| !f.is_empty())
+            .collect();
+        match &block {
+            Block::Node(set) => {
+                let id: usize = fields
+                    .first()
+                    .and_then(|f| f.parse().ok())
+                    .filter(|&id| id > 0)
+                    .ok_or_else(|| l.err(format!("expected 'id, x, y, z', found '{t}'")))?;
+                let mut x = [0.0; 3];
+                if fields.len() > 4 {
+                    return Err(l.err(format!("node {id}: more than 3 coordinates")));
+                }
+                for (k, f) in fields[1..].iter().enumerate() {
+                    x[k] = parse_value(Some(f), "coordinate").map_err(|e| l.err(e))?;
+                }
+                if mesh.nodes.insert(id, x).is_some() {
+                    return Err(l.err(format!("node {id} defined twice")));
+                }
+                if let Some(s) = set {
+                    mesh.node_sets.entry(s.clone()).or_default().push(id);
+                }
+            }
+            Block::Nset { name, generate } => {
+                let mut add = Vec::new();
+                if *generate {
+                    let nums: Vec<usize> = fields
+                        .iter()
+                        .map(|f| f.parse::<usize>())
+                        .collect::<Result<_, _>>()
+                        .map_err(|_| {
+                            l.err(format!("expected 'first, last[, step]', found '{t}'"))
+                        })?;
+                    let (a, b, s) = match nums[..] {
+                        [a, b] => (a, b, 1),
+                        [a, b, s] => (a, b, s),
+                        _ => {
+                            return Err(
+                                l.err(format!("expected 'first, last[, step]', found '{t}'"))
+                            );
+                        }
+                    };
+                    if s == 0 || b < a {
+                        return Err(l.err(format!("invalid GENERATE range '{t}'")));
+                    }
+                    add.extend((a..=b).step_by(s));
+                } else {
+                    for f in &fields {
+                        match f.parse::<usize>() {
+                            Ok(id) => add.push(id),
+                            Err(_) => {
+                                let other =
+                                    mesh.node_sets.get(&f.to_uppercase()).ok_or_else(|| {
+                                        l.err(format!(
+                                            "'{f}' is neither a node id nor a known node set"
+                                        ))
+                                    })?;
+                                add.extend_from_slice(other);
+                            }
+                        }
+                    }
+                }
+                mesh.node_sets.entry(name.clone()).or_default().extend(add);
+            }
+            Block::Other => {}
+        }
+    }
+    Ok(())
+}
+
+/// How the contact nodes are chosen; their order is the row order (leading → trailing edge).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum ContactSelection {
+    /// Node ids of the FE model, in row order.
+    Nodes(Vec<usize>),
+    /// A CalculiX `*NSET` of the deck, in file order.
+    NodeSet(String),
+}
+
+/// What `rubscan model import` needs to import a CalculiX model (JSON-deserializable).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalculixImportSpec {
+    /// Name stored in the ROM.
+    pub name: String,
+    /// Impeller or casing.
+    pub component: Component,
+    /// Stiffness matrix storage file (`job.sti`).
+    pub stiffness: PathBuf,
+    /// Mass matrix storage file (`job.mas`).
+    pub mass: PathBuf,
+    /// DOF map (`job.dof`).
+    pub dof_map: PathBuf,
+    /// Input deck (or mesh file) with the `*NODE` (and `*NSET`) blocks.
+    pub mesh: PathBuf,
+    /// Contact nodes, leading → trailing edge.
+    pub contact: ContactSelection,
+    /// Number of fixed-interface modes kept.
+    pub n_modes: usize,
+    /// Unit system of the files (`"mm-t-s"` or `"si"`).
+    pub units: Units,
+    /// Damping stored in the ROM.
+    #[serde(default)]
+    pub damping: Damping,
+}
+
+impl CalculixImportSpec {
+    /// A spec for the files `dir/job.{sti,mas,dof,inp}` written by `ccx job`.
+    pub fn from_job(
+        dir: &Path,
+        job: &str,
+        contact: ContactSelection,
+        n_modes: usize,
+        units: Units,
+    ) -> Self {
+        let f = |ext: &str| dir.join(format!("{job}.{ext}"));
+        Self {
+            name: job.to_string(),
+            component: Component::Impeller,
+            stiffness: f("sti"),
+            mass: f("mas"),
+            dof_map: f("dof"),
+            mesh: f("inp"),
+            contact,
+            n_modes,
+            units,
+            damping: Damping::default(),
+        }
+    }
+}
+
+/// The contact node ids of `selection`, checked against the node list of `mesh`.
+pub(crate) fn contact_points(
+    selection: &ContactSelection,
+    nodes: &HashMap<usize, [f64; 3]>,
+    node_sets: &HashMap<String, Vec<usize>>,
+    mesh_path: &Path,
+    length_factor: f64,
+) -> Result<Vec<ContactPoint>, ImportError> {
+    let ids: Vec<usize> = match selection {
+        ContactSelection::Nodes(ids) => ids.clone(),
+        ContactSelection::NodeSet(name) => node_sets
+            .get(&name.to_uppercase())
+            .cloned()
+            .ok_or_else(|| ImportError::file(mesh_path, format!("no node set '{name}'")))?,
+    };
+    if ids.is_empty() {
+        return Err(ImportError::Spec("the contact selection is empty".into()));
+    }
+    ids.iter()
+        .map(|&node| {
+            let x = nodes.get(&node).ok_or_else(|| {
+                ImportError::file(mesh_path, format!("contact node {node} is not defined"))
+            })?;
+            Ok(ContactPoint {
+                node,
+                position: x.map(|c| c * length_factor),
+            })
+        })
+        .collect()
+}
+
+/// Checks that every contact node has its 3 DOFs in the DOF map (error naming that file).
+pub(crate) fn check_contact_dofs(
+    contacts: &[ContactPoint],
+    dofs: &[NodeDof],
+    dof_path: &Path,
+) -> Result<(), ImportError> {
+    let set: std::collections::HashSet<NodeDof> = dofs.iter().copied().collect();
+    for c in contacts {
+        for dir in 0..3 {
+            if !set.contains(&NodeDof { node: c.node, dir }) {
+                return Err(ImportError::file(
+                    dof_path,
+                    format!(
+                        "contact node {} has no DOF {}.{} (clamped or not in the model)",
+                        c.node,
+                        c.node,
+                        dir + 1
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Imports a CalculiX model and reduces it (Craig–Bampton, contact nodes kept, `n_modes`
+/// fixed-interface modes) to a one-sector [`CyclicRom`] in SI units, at rest (K1 = K2 = 0,
+/// see [`crate::model::component`] for the centrifugal hook).
+pub fn import_calculix(spec: &CalculixImportSpec) -> Result<CyclicRom, ImportError> {
+    let dofs = read_dof_map(&spec.dof_map)?;
+    let n = dofs.len();
+    let mesh = read_calculix_mesh(&spec.mesh)?;
+    let contacts = contact_points(
+        &spec.contact,
+        &mesh.nodes,
+        &mesh.node_sets,
+        &spec.mesh,
+        spec.units.length_factor(),
+    )?;
+    check_contact_dofs(&contacts, &dofs, &spec.dof_map)?;
+    let stiffness = read_matrix_storage(&spec.stiffness, n, spec.units.stiffness_factor())?;
+    let mass = read_matrix_storage(&spec.mass, n, spec.units.mass_factor())?;
+    let mats = ComponentMatrices {
+        stiffness,
+        mass,
+        dofs,
+    };
+    let opts = ComponentReductionOptions {
+        name: spec.name.clone(),
+        component: spec.component,
+        n_modes: spec.n_modes,
+        damping: spec.damping,
+        ..Default::default()
+    };
+    let mut rom = reduce_component(&mats, &contacts, &opts)?;
+    rom.provenance = serde_json::json!({
+        "import": "calculix",
+        "spec": spec,
+        "n_fe_dofs": n,
+        "contact_node_ids": contacts.iter().map(|c| c.node).collect::<Vec<_>>(),
+        "reduction": "Craig-Bampton, fixed interface at the contact nodes",
+    });
+    rom.validate()?;
+    Ok(rom)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    pub(crate) fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        let mut f = File::create(&p).unwrap();
+        f.write_all(text.as_bytes()).unwrap();
+        p
+    }
+
+    pub(crate) fn scratch(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("rubscan-imp-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn line_err(e: ImportError) -> (String, usize, String) {
+        match e {
+            ImportError::Line { file, line, reason } => (
+                file.file_name().unwrap().to_string_lossy().into_owned(),
+                line,
+                reason,
+            ),
+            other => panic!("expected a line error, got {other}"),
+        }
+    }
+
+    #[test]
+    fn reads_matrix_storage_and_mirrors() {
+        let d = scratch("sti");
+        let p = write(
+            &d,
+            "a.sti",
+            "1 1  4.0e+00\n1 2 -1.0e+00\n2 2  5.0e+00\n2 3  2.0\n3 3 6\n",
+        );
+        let a = read_matrix_storage(&p, 3, 1e3).unwrap();
+        let dense = a.to_dense();
+        let expect = [[4.0, -1.0, 0.0], [-1.0, 5.0, 2.0], [0.0, 2.0, 6.0]];
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_eq!(dense[(i, j)], 1e3 * expect[i][j]);
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_bad_matrix_storage() {
+        let d = scratch("stibad");
+        let p = write(&d, "t.sti", "1 1 4.0\n1 2 -1.0\n2 2 5.0\n2 3 1.0\n3 3 6.");
+        let (f, line, why) = line_err(read_matrix_storage(&p, 3, 1.0).unwrap_err());
+        assert_eq!((f.as_str(), line), ("t.sti", 5));
+        assert!(why.contains("truncated"), "{why}");
+
+        let p = write(&d, "c.sti", "1 1 4.0\n1 2 -1.0x\n2 2 5.0\n");
+        let (_, line, why) = line_err(read_matrix_storage(&p, 2, 1.0).unwrap_err());
+        assert_eq!(line, 2);
+        assert!(why.contains("not a number"), "{why}");
+
+        let p = write(&d, "r.sti", "1 1 4.0\n1 4 -1.0\n2 2 5.0\n");
+        let (_, line, why) = line_err(read_matrix_storage(&p, 3, 1.0).unwrap_err());
+        assert_eq!(line, 2);
+        assert!(why.contains("column 4 out of range 1..=3"), "{why}");
+
+        let p = write(&d, "m.sti", "1 1 4.0\n1 2 -1.0\n2 1 -1.0\n2 2 5.0\n");
+        let (_, line, why) = line_err(read_matrix_storage(&p, 2, 1.0).unwrap_err());
+        assert_eq!(line, 3);
+        assert!(why.contains("triangle"), "{why}");
+
+        // Cut at a line boundary: the last diagonal entries are missing.
+        let p = write(&d, "s.sti", "1 1 4.0\n1 2 -1.0\n2 2 5.0\n");
+        let e = read_matrix_storage(&p, 3, 1.0).unwrap_err().to_string();
+        assert!(
+            e.contains("s.sti") && e.contains("no diagonal entry for row 3"),
+            "{e}"
+        );
+
+        let p = write(&d, "d.sti", "1 1 4.0\n1 2 -1.0\n2 2 5.0\n1 2 3.0\n");
+        let e = read_matrix_storage(&p, 2, 1.0).unwrap_err().to_string();
+        assert!(
+            e.contains("d.sti") && e.contains("duplicate entry (1, 2)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn reads_dof_map_and_rejects_bad_lines() {
+        let d = scratch("dof");
+        let p = write(&d, "a.dof", "3.1\n3.2\n3.3\n10.2\n");
+        let dofs = read_dof_map(&p).unwrap();
+        assert_eq!(dofs[3], NodeDof { node: 10, dir: 1 });
+        let p = write(&d, "b.dof", "3.1\n3.4\n");
+        let (_, line, why) = line_err(read_dof_map(&p).unwrap_err());
+        assert_eq!(line, 2);
+        assert!(why.contains("direction 4"), "{why}");
+        let p = write(&d, "c.dof", "3.1\nabc\n");
+        assert_eq!(line_err(read_dof_map(&p).unwrap_err()).1, 2);
+        let p = write(&d, "e.dof", "3.1\n3.2\n3.1\n");
+        assert!(line_err(read_dof_map(&p).unwrap_err()).2.contains("twice"));
+    }
+
+    #[test]
+    fn reads_nodes_sets_and_includes() {
+        let d = scratch("deck");
+        write(
+            &d,
+            "mesh.msh",
+            "*NODE, NSET=Nall\n 1, 0.0, 0.0, 0.0\n 2, 1.0, 0.5, -2.0e+01\n 3, 2.0\n*ELEMENT, TYPE=C3D8\n 1, 1, 2, 3\n",
+        );
+        let deck = write(
+            &d,
+            "job.inp",
+            "*HEADING\nx\n*include, input=./mesh.msh\n** comment\n*NSET, NSET=tip\n3, 1\n*nset,nset=TWO, generate\n1, 3, 2\n*NSET,NSET=both\ntip, 2\n",
+        );
+        let mesh = read_calculix_mesh(&deck).unwrap();
+        assert_eq!(mesh.nodes[&2], [1.0, 0.5, -20.0]);
+        assert_eq!(mesh.nodes[&3], [2.0, 0.0, 0.0]);
+        assert_eq!(mesh.node_sets["NALL"], vec![1, 2, 3]);
+        assert_eq!(mesh.node_sets["TIP"], vec![3, 1]);
+        assert_eq!(mesh.node_sets["TWO"], vec![1, 3]);
+        assert_eq!(mesh.node_sets["BOTH"], vec![3, 1, 2]);
+
+        let bad = write(&d, "bad.inp", "*NODE\n1, 0, 0, 0\n2, 0, zz, 0\n");
+        let (f, line, why) = line_err(read_calculix_mesh(&bad).unwrap_err());
+        assert_eq!((f.as_str(), line), ("bad.inp", 3));
+        assert!(why.contains("zz"), "{why}");
+        let missing = write(&d, "inc.inp", "*INCLUDE, INPUT=nothere.msh\n");
+        let e = read_calculix_mesh(&missing).unwrap_err().to_string();
+        assert!(e.contains("nothere.msh"), "{e}");
+    }
+
+    #[test]
+    fn contact_selection_errors_name_the_file() {
+        let nodes: HashMap<usize, [f64; 3]> = [(1, [1.0, 2.0, 3.0])].into_iter().collect();
+        let sets = HashMap::new();
+        let mesh = Path::new("deck.inp");
+        let pts =
+            contact_points(&ContactSelection::Nodes(vec![1]), &nodes, &sets, mesh, 1e-3).unwrap();
+        assert_eq!(pts[0].position, [1e-3, 2e-3, 3e-3]);
+        let e = contact_points(
+            &ContactSelection::Nodes(vec![1, 7]),
+            &nodes,
+            &sets,
+            mesh,
+            1.0,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("deck.inp") && e.contains("contact node 7"),
+            "{e}"
+        );
+        let e = contact_points(
+            &ContactSelection::NodeSet("tip".into()),
+            &nodes,
+            &sets,
+            mesh,
+            1.0,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("no node set 'tip'"), "{e}");
+        let dofs = vec![NodeDof { node: 1, dir: 0 }, NodeDof { node: 1, dir: 1 }];
+        let e = check_contact_dofs(&pts, &dofs, Path::new("job.dof"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("job.dof") && e.contains("1.3"), "{e}");
+    }
+
+    #[test]
+    fn spec_json_round_trip() {
+        let spec = CalculixImportSpec::from_job(
+            Path::new("/tmp/r37"),
+            "blade",
+            ContactSelection::Nodes(vec![188, 190]),
+            50,
+            Units::MmTonneSecond,
+        );
+        let json = serde_json::to_string(&spec).unwrap();
+        assert!(
+            json.contains("\"mm-t-s\"") && json.contains("\"nodes\":[188,190]"),
+            "{json}"
+        );
+        let back: CalculixImportSpec = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, spec);
+    }
+}

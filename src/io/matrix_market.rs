@@ -1,0 +1,603 @@
+//! Import of a component given as Matrix Market files (DESIGN §2.4): stiffness and mass
+//! in `coordinate real|integer symmetric|general` format, a DOF map and node coordinates,
+//! then Craig–Bampton reduction ([`crate::model::component::reduce_component`]).
+//!
+//! # Files
+//! - `K.mtx`, `M.mtx`: Matrix Market coordinate format. `symmetric` files store one triangle
+//!   (the standard says the lower one; either is accepted, not a mixture); `general` files
+//!   store both and must be symmetric (relative tolerance 1e-12 of the largest entry).
+//! - DOF map (rubscan text format): one line per matrix row, `node direction`, whitespace
+//!   separated, `node` a positive integer id, `direction` 1, 2, 3 = x, y, z. Empty lines and
+//!   lines starting with `#` or `%` are ignored (they do not count as rows).
+//! - Nodes: either a CalculiX deck / mesh (extension `.inp` or `.msh`, read with
+//!   [`crate::io::calculix::read_calculix_mesh`], which also gives `*NSET`s), or a text
+//!   table `id x y z` per line (whitespace or comma separated, `#`/`%` comments).
+
+use crate::io::calculix::{
+    ContactSelection, ImportError, LineReader, TriangleBuilder, Units, check_contact_dofs,
+    contact_points, parse_index, parse_value, read_calculix_mesh,
+};
+use crate::model::component::{
+    ComponentMatrices, ComponentReductionOptions, NodeDof, reduce_component, sparse_from_entries,
+};
+use crate::model::rom::{Component, CyclicRom, Damping};
+use faer::sparse::SparseColMat;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Relative tolerance on the symmetry of a `general` Matrix Market matrix.
+const SYMMETRY_TOL: f64 = 1e-12;
+
+/// Reads a square, symmetric Matrix Market coordinate matrix of order `n` (the length of
+/// the DOF map) into full storage, multiplied by `factor` (unit conversion).
+pub fn read_matrix_market(
+    path: &Path,
+    n: usize,
+    factor: f64,
+) -> Result<SparseColMat<usize, f64>, ImportError> {
+    let mut rd = LineReader::open(path)?;
+    let header = rd
+        .next_line()?
+        .ok_or_else(|| ImportError::file(path, "empty file"))?
+        .text
+        .to_ascii_lowercase();
+    let h: Vec<&str> = header.split_ascii_whitespace().collect();
+    if h.len() != 5 || h[0] != "%%matrixmarket" || h[1] != "matrix" {
+        return Err(rd.err("expected the header '%%MatrixMarket matrix coordinate real symmetric'"));
+    }
+    if h[2] != "coordinate" {
+        return Err(rd.err(format!(
+            "format '{}' not supported (only 'coordinate')",
+            h[2]
+        )));
+    }
+    if h[3] != "real" && h[3] != "integer" {
+        return Err(rd.err(format!(
+            "field '{}' not supported (only 'real' or 'integer')",
+            h[3]
+        )));
+    }
+    let symmetric = match h[4] {
+        "symmetric" => true,
+        "general" => false,
+        other => {
+            return Err(rd.err(format!(
+                "symmetry '{other}' not supported (only 'symmetric' or 'general')"
+            )));
+        }
+    };
+    // Size line after the comments.
+    let (rows, cols, nnz) = loop {
+        let Some(l) = rd.next_line()? else {
+            return Err(ImportError::file(path, "no size line: truncated file"));
+        };
+        let t = l.text.trim();
+        if t.is_empty() || t.starts_with('%') {
+            continue;
+        }
+        let nums: Result<Vec<usize>, _> = t.split_ascii_whitespace().map(str::parse).collect();
+        match nums.as_deref() {
+            Ok([r, c, z]) => break (*r, *c, *z),
+            _ => {
+                return Err(l.err(format!(
+                    "expected the size line 'rows cols entries', found '{t}'"
+                )));
+            }
+        }
+    };
+    if rows != cols {
+        return Err(rd.err(format!("the matrix is {rows}×{cols}, not square")));
+    }
+    if rows != n {
+        return Err(rd.err(format!(
+            "the matrix has order {rows} but the DOF map has {n} rows"
+        )));
+    }
+    let mut tri = TriangleBuilder::new(n, if symmetric { nnz } else { 0 });
+    let mut general: Vec<(u32, u32, f64)> = Vec::new();
+    let mut lines: Vec<usize> = Vec::new();
+    let mut count = 0usize;
+    while let Some(l) = rd.next_line()? {
+        let line = l.text;
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('%') {
+            continue;
+        }
+        if count == nnz {
+            return Err(l.err(format!("more entries than the {nnz} announced")));
+        }
+        let mut it = t.split_ascii_whitespace();
+        let parsed = (|| {
+            let r = parse_index(it.next(), n, "row")?;
+            let c = parse_index(it.next(), n, "column")?;
+            let v = parse_value(it.next(), "value")?;
+            if let Some(extra) = it.next() {
+                return Err(format!("unexpected extra field '{extra}'"));
+            }
+            Ok((r, c, v))
+        })();
+        let (r, c, v) = parsed.map_err(|e| l.err(format!("{e} (expected 'row col value')")))?;
+        if symmetric {
+            tri.push(r, c, v).map_err(|e| l.err(e))?;
+        } else {
+            general.push((r as u32, c as u32, v * factor));
+            lines.push(l.no);
+        }
+        count += 1;
+    }
+    if count < nnz {
+        return Err(ImportError::line(
+            path,
+            rd.line,
+            format!("truncated file: {count} of the {nnz} announced entries"),
+        ));
+    }
+    if symmetric {
+        return tri.finish(path, factor);
+    }
+    let a = sparse_from_entries(n, &general, false)
+        .map_err(|e| ImportError::file(path, e.to_string()))?;
+    let scale = a.val().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (&(r, c, v), &line) in general.iter().zip(&lines) {
+        let w = a.get(c as usize, r as usize).copied().unwrap_or(0.0);
+        if (v - w).abs() > SYMMETRY_TOL * scale {
+            return Err(ImportError::line(
+                path,
+                line,
+                format!(
+                    "non-symmetric general input: entry ({}, {}) = {} but ({}, {}) = {}",
+                    r + 1,
+                    c + 1,
+                    v / factor,
+                    c + 1,
+                    r + 1,
+                    w / factor
+                ),
+            ));
+        }
+    }
+    for i in 0..n {
+        match a.get(i, i) {
+            Some(&d) if d > 0.0 => {}
+            _ => {
+                return Err(ImportError::file(
+                    path,
+                    format!(
+                        "diagonal entry {} is missing or ≤ 0: not positive definite",
+                        i + 1
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(a)
+}
+
+/// Reads a DOF map in the rubscan text format (`node direction` per row, see module doc).
+pub fn read_dof_list(path: &Path) -> Result<Vec<NodeDof>, ImportError> {
+    let mut rd = LineReader::open(path)?;
+    let mut dofs = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    while let Some(l) = rd.next_line()? {
+        let line = l.text;
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
+            continue;
+        }
+        let f: Vec<&str> = t.split_ascii_whitespace().collect();
+        let parsed = match f[..] {
+            [a, b] => a.parse::<usize>().ok().zip(b.parse::<usize>().ok()),
+            _ => None,
+        };
+        let Some((node, dir)) = parsed.filter(|&(node, _)| node > 0) else {
+            return Err(l.err(format!("expected 'node direction', found '{t}'")));
+        };
+        if !(1..=3).contains(&dir) {
+            return Err(l.err(format!("direction {dir} of node {node} must be 1, 2 or 3")));
+        }
+        let d = NodeDof { node, dir: dir - 1 };
+        if !seen.insert(d) {
+            return Err(l.err(format!("DOF ({node}, {dir}) is listed twice")));
+        }
+        dofs.push(d);
+    }
+    if dofs.is_empty() {
+        return Err(ImportError::file(path, "no DOFs"));
+    }
+    Ok(dofs)
+}
+
+/// Reads a node table `id x y z` per line (see module doc), coordinates in file units.
+pub fn read_node_table(path: &Path) -> Result<HashMap<usize, [f64; 3]>, ImportError> {
+    let mut rd = LineReader::open(path)?;
+    let mut nodes = HashMap::new();
+    while let Some(l) = rd.next_line()? {
+        let line = l.text;
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
+            continue;
+        }
+        let f: Vec<&str> = t
+            .split(|c: char| c == ',' || c.is_ascii_whitespace())
+            .filter(|s| !s.is_empty())
+            .collect();
+        if f.len() != 4 {
+            return Err(l.err(format!("expected 'id x y z', found '{t}'")));
+        }
+        let id: usize = f[0]
+            .parse()
+            .ok()
+            .filter(|&i| i > 0)
+            .ok_or_else(|| l.err(format!("node id '{}' is not a positive integer", f[0])))?;
+        let mut x = [0.0; 3];
+        for k in 0..3 {
+            x[k] = parse_value(Some(f[k + 1]), "coordinate").map_err(|e| l.err(e))?;
+        }
+        if nodes.insert(id, x).is_some() {
+            return Err(l.err(format!("node {id} defined twice")));
+        }
+    }
+    Ok(nodes)
+}
+
+/// What `rubscan model import` needs to import a Matrix Market model (JSON-deserializable).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MatrixMarketImportSpec {
+    /// Name stored in the ROM.
+    pub name: String,
+    /// Impeller or casing.
+    pub component: Component,
+    /// Stiffness matrix (`.mtx`).
+    pub stiffness: PathBuf,
+    /// Mass matrix (`.mtx`).
+    pub mass: PathBuf,
+    /// DOF map (`node direction` per row).
+    pub dof_map: PathBuf,
+    /// Node coordinates: CalculiX deck (`.inp`/`.msh`) or `id x y z` table.
+    pub nodes: PathBuf,
+    /// Contact nodes, leading → trailing edge (`node_set` needs a CalculiX deck).
+    pub contact: ContactSelection,
+    /// Number of fixed-interface modes kept.
+    pub n_modes: usize,
+    /// Unit system of the files (`"mm-t-s"` or `"si"`).
+    pub units: Units,
+    /// Damping stored in the ROM.
+    #[serde(default)]
+    pub damping: Damping,
+}
+
+/// Imports a Matrix Market model and reduces it to a one-sector [`CyclicRom`] (SI units, at
+/// rest; see [`crate::io::calculix::import_calculix`] for the same on CalculiX files).
+pub fn import_matrix_market(spec: &MatrixMarketImportSpec) -> Result<CyclicRom, ImportError> {
+    let dofs = read_dof_list(&spec.dof_map)?;
+    let n = dofs.len();
+    let is_deck = matches!(
+        spec.nodes
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref(),
+        Some("inp" | "msh")
+    );
+    let (nodes, sets) = if is_deck {
+        let m = read_calculix_mesh(&spec.nodes)?;
+        (m.nodes, m.node_sets)
+    } else {
+        (read_node_table(&spec.nodes)?, HashMap::new())
+    };
+    let contacts = contact_points(
+        &spec.contact,
+        &nodes,
+        &sets,
+        &spec.nodes,
+        spec.units.length_factor(),
+    )?;
+    check_contact_dofs(&contacts, &dofs, &spec.dof_map)?;
+    let stiffness = read_matrix_market(&spec.stiffness, n, spec.units.stiffness_factor())?;
+    let mass = read_matrix_market(&spec.mass, n, spec.units.mass_factor())?;
+    let mats = ComponentMatrices {
+        stiffness,
+        mass,
+        dofs,
+    };
+    let opts = ComponentReductionOptions {
+        name: spec.name.clone(),
+        component: spec.component,
+        n_modes: spec.n_modes,
+        damping: spec.damping,
+        ..Default::default()
+    };
+    let mut rom = reduce_component(&mats, &contacts, &opts)?;
+    rom.provenance = serde_json::json!({
+        "import": "matrix_market",
+        "spec": spec,
+        "n_fe_dofs": n,
+        "contact_node_ids": contacts.iter().map(|c| c.node).collect::<Vec<_>>(),
+        "reduction": "Craig-Bampton, fixed interface at the contact nodes",
+    });
+    rom.validate()?;
+    Ok(rom)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::component::dense_modes;
+    use approx::assert_relative_eq;
+    use nalgebra::DMatrix;
+    use std::fmt::Write as _;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("rubscan-imp-mm-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    /// A planar-in-3-D spring–mass chain of `n` nodes along x (ids 1..=n, spacing 10 mm),
+    /// clamped at a wall before node 1, each node with 3 DOFs, in mm-t-s units:
+    /// springs k_dir (N/mm) between neighbours and consistent rod-like masses
+    /// (m/3 diagonal, m/6 coupling, t). Returns dense K, M (file units) and the DOF list.
+    fn chain(n: usize) -> (DMatrix<f64>, DMatrix<f64>, Vec<(usize, usize)>) {
+        let nd = 3 * n;
+        let mut k = DMatrix::zeros(nd, nd);
+        let mut m = DMatrix::zeros(nd, nd);
+        let ks = [2.0e4, 5.0e3, 7.0e3];
+        let ms = 1.0e-3;
+        for e in 0..n {
+            // element between node e-1 (wall when e = 0) and node e
+            for (dir, kd) in ks.iter().enumerate() {
+                let b = 3 * e + dir;
+                let kk = kd * (1.0 + 0.05 * e as f64);
+                k[(b, b)] += kk;
+                m[(b, b)] += ms / 3.0;
+                if e > 0 {
+                    let a = 3 * (e - 1) + dir;
+                    k[(a, a)] += kk;
+                    k[(a, b)] -= kk;
+                    k[(b, a)] -= kk;
+                    m[(a, a)] += ms / 3.0;
+                    m[(a, b)] += ms / 6.0;
+                    m[(b, a)] += ms / 6.0;
+                }
+            }
+        }
+        let dofs = (0..nd).map(|i| (i / 3 + 1, i % 3 + 1)).collect();
+        (k, m, dofs)
+    }
+
+    fn mtx(a: &DMatrix<f64>, symmetric: bool) -> String {
+        let mut entries = Vec::new();
+        for j in 0..a.ncols() {
+            for i in 0..a.nrows() {
+                if a[(i, j)] != 0.0 && (!symmetric || i >= j) {
+                    entries.push((i + 1, j + 1, a[(i, j)]));
+                }
+            }
+        }
+        let mut s = format!(
+            "%%MatrixMarket matrix coordinate real {}\n% generated\n{} {} {}\n",
+            if symmetric { "symmetric" } else { "general" },
+            a.nrows(),
+            a.ncols(),
+            entries.len()
+        );
+        for (i, j, v) in entries {
+            writeln!(s, "{i} {j} {v:.17e}").unwrap();
+        }
+        s
+    }
+
+    #[test]
+    fn chain_round_trips_through_import_and_reduction() {
+        let d = scratch("chain");
+        let n = 30;
+        let (k, m, dofs) = chain(n);
+        let kp = write(&d, "K.mtx", &mtx(&k, true));
+        let mp = write(&d, "M.mtx", &mtx(&m, false));
+        let dof_text: String = dofs.iter().map(|(a, b)| format!("{a} {b}\n")).collect();
+        let dp = write(&d, "dofs.txt", &format!("# node direction\n{dof_text}"));
+        let nodes: String = (1..=n)
+            .map(|i| format!("{i} {} 0 0\n", 10.0 * i as f64))
+            .collect();
+        let np = write(&d, "nodes.txt", &nodes);
+        let spec = MatrixMarketImportSpec {
+            name: "chain".into(),
+            component: Component::Casing,
+            stiffness: kp,
+            mass: mp,
+            dof_map: dp,
+            nodes: np,
+            contact: ContactSelection::Nodes(vec![10, 20, 30]),
+            n_modes: 40,
+            units: Units::MmTonneSecond,
+            damping: Damping::default(),
+        };
+        let rom = import_matrix_market(&spec).unwrap();
+        assert_eq!(rom.contact_nodes[2].position, [0.3, 0.0, 0.0]);
+        assert_eq!(rom.contact_nodes[1].row, 1);
+        // Reference: dense eigen-solution of the full model in SI units.
+        let (f_ref, _) = dense_modes(&(&k * 1e3), &(&m * 1e3), 6).unwrap();
+        let f = &rom.modal_data[0].frequencies[0];
+        for p in 0..6 {
+            assert!(f[p] >= f_ref[p] * (1.0 - 1e-12));
+            assert_relative_eq!(f[p], f_ref[p], max_relative = 1e-3);
+        }
+        // Units: the boundary blocks (physical DOFs) scale by 1e3 from the file units
+        // (N/mm → N/m, t → kg); the frequencies do not change.
+        let si = import_matrix_market(&MatrixMarketImportSpec {
+            units: Units::Si,
+            ..spec.clone()
+        })
+        .unwrap();
+        let (h_mm, h_si) = (&rom.harmonics[0], &si.harmonics[0]);
+        let bb = |x: &DMatrix<f64>| x.view((0, 0), (9, 9)).into_owned();
+        let kb = bb(&h_si.stiffness[0].re) * 1e3;
+        assert!((bb(&h_mm.stiffness[0].re) - &kb).amax() < 1e-9 * kb.amax());
+        let mb = bb(&h_si.mass.re) * 1e3;
+        assert!((bb(&h_mm.mass.re) - &mb).amax() < 1e-9 * mb.amax());
+        for (a, b) in f.iter().zip(&si.modal_data[0].frequencies[0]) {
+            assert_relative_eq!(*a, *b, max_relative = 1e-9);
+        }
+    }
+
+    #[test]
+    fn all_modes_kept_reproduces_the_full_spectrum() {
+        let d = scratch("exact");
+        let n = 8;
+        let (k, m, dofs) = chain(n);
+        let spec = MatrixMarketImportSpec {
+            name: "c".into(),
+            component: Component::Impeller,
+            stiffness: write(&d, "K.mtx", &mtx(&k, false)),
+            mass: write(&d, "M.mtx", &mtx(&m, true)),
+            dof_map: write(
+                &d,
+                "d.txt",
+                &dofs
+                    .iter()
+                    .map(|(a, b)| format!("{a} {b}\n"))
+                    .collect::<String>(),
+            ),
+            nodes: write(
+                &d,
+                "n.txt",
+                &(1..=n)
+                    .map(|i| format!("{i},{i}.0,0,0\n"))
+                    .collect::<String>(),
+            ),
+            contact: ContactSelection::Nodes(vec![4, 8]),
+            n_modes: 3 * n - 6,
+            units: Units::Si,
+            damping: Damping::default(),
+        };
+        let rom = import_matrix_market(&spec).unwrap();
+        let (f_ref, _) = dense_modes(&k, &m, 3 * n - 6).unwrap();
+        for (a, b) in rom.modal_data[0].frequencies[0].iter().zip(&f_ref) {
+            assert_relative_eq!(*a, *b, max_relative = 1e-9);
+        }
+    }
+
+    fn line_of(e: ImportError) -> (String, usize, String) {
+        match e {
+            ImportError::Line { file, line, reason } => (
+                file.file_name().unwrap().to_string_lossy().into_owned(),
+                line,
+                reason,
+            ),
+            other => panic!("expected a line error, got {other}"),
+        }
+    }
+
+    #[test]
+    fn malformed_matrix_market_is_rejected() {
+        let d = scratch("bad");
+        let hdr = "%%MatrixMarket matrix coordinate real symmetric\n";
+        let p = write(&d, "t.mtx", &format!("{hdr}2 2 3\n1 1 2.0\n2 1 -1.0\n"));
+        let (f, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        assert_eq!((f.as_str(), line), ("t.mtx", 4));
+        assert!(
+            why.contains("truncated") && why.contains("2 of the 3"),
+            "{why}"
+        );
+
+        let p = write(
+            &d,
+            "c.mtx",
+            &format!("{hdr}2 2 3\n1 1 2.0\n2 1 -1.0 7\n2 2 3\n"),
+        );
+        let (_, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        assert_eq!(line, 4);
+        assert!(why.contains("extra field"), "{why}");
+
+        let p = write(&d, "s.mtx", &format!("{hdr}3 3 1\n1 1 2.0\n"));
+        let (_, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        assert_eq!(line, 2);
+        assert!(why.contains("order 3 but the DOF map has 2"), "{why}");
+
+        let p = write(
+            &d,
+            "g.mtx",
+            "%%MatrixMarket matrix coordinate real general\n2 2 4\n1 1 2.0\n2 1 -1.0\n1 2 -1.5\n2 2 3\n",
+        );
+        let (_, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        assert_eq!(line, 4);
+        assert!(why.contains("non-symmetric"), "{why}");
+
+        let p = write(
+            &d,
+            "x.mtx",
+            "%%MatrixMarket matrix array real general\n2 2\n",
+        );
+        assert!(
+            line_of(read_matrix_market(&p, 2, 1.0).unwrap_err())
+                .2
+                .contains("array")
+        );
+        let p = write(&d, "o.mtx", &format!("{hdr}2 2 1\n1 3 2.0\n"));
+        assert!(
+            line_of(read_matrix_market(&p, 2, 1.0).unwrap_err())
+                .2
+                .contains("out of range")
+        );
+    }
+
+    #[test]
+    fn import_errors_name_the_file() {
+        let d = scratch("imp");
+        let (k, m, dofs) = chain(4);
+        let mut spec = MatrixMarketImportSpec {
+            name: "c".into(),
+            component: Component::Impeller,
+            stiffness: write(&d, "K.mtx", &mtx(&k, true)),
+            mass: write(
+                &d,
+                "M.mtx",
+                &mtx(&m.view((0, 0), (9, 9)).into_owned(), true),
+            ),
+            dof_map: write(
+                &d,
+                "d.txt",
+                &dofs
+                    .iter()
+                    .map(|(a, b)| format!("{a} {b}\n"))
+                    .collect::<String>(),
+            ),
+            nodes: write(&d, "n.txt", "1 0 0 0\n2 1 0 0\n3 2 0 0\n4 3 0 0\n"),
+            contact: ContactSelection::Nodes(vec![4]),
+            n_modes: 2,
+            units: Units::Si,
+            damping: Damping::default(),
+        };
+        // Mass of the wrong size.
+        let e = import_matrix_market(&spec).unwrap_err().to_string();
+        assert!(
+            e.contains("M.mtx") && e.contains("order 9 but the DOF map has 12"),
+            "{e}"
+        );
+        spec.mass = write(&d, "M2.mtx", &mtx(&m, true));
+        assert!(import_matrix_market(&spec).is_ok());
+        // Contact node missing from the node list, then from the DOF map.
+        spec.contact = ContactSelection::Nodes(vec![5]);
+        let e = import_matrix_market(&spec).unwrap_err().to_string();
+        assert!(e.contains("n.txt") && e.contains("contact node 5"), "{e}");
+        spec.nodes = write(
+            &d,
+            "n2.txt",
+            "1 0 0 0\n2 1 0 0\n3 2 0 0\n4 3 0 0\n5 4 0 0\n",
+        );
+        let e = import_matrix_market(&spec).unwrap_err().to_string();
+        assert!(e.contains("d.txt") && e.contains("contact node 5"), "{e}");
+        // Corrupted DOF map line.
+        spec.dof_map = write(&d, "d2.txt", "1 1\n1 2\n1 x\n");
+        let (f, line, _) = line_of(import_matrix_market(&spec).unwrap_err());
+        assert_eq!((f.as_str(), line), ("d2.txt", 3));
+    }
+}

@@ -1,0 +1,1219 @@
+//! Craig–Bampton reduction of a single, non-cyclic component given by sparse FE matrices
+//! (typically imported from CalculiX or Matrix Market files, see [`crate::io::calculix`]).
+//!
+//! The result is a [`CyclicRom`] with `n_sectors = 1`: one harmonic block (k = 0) with real
+//! matrices over `[3 n_c contact-node DOFs (node-major x, y, z); n_m fixed-interface modes]`
+//! (DESIGN §2.4, Craig–Bampton as in §2.1 of Batailly & Legrand 2015).
+//!
+//! # Method
+//! With the DOFs split into boundary `b` (the contact nodes' DOFs, kept physically) and
+//! interior `i`, the reduction basis is
+//! `T = [[I, 0], [Ψ, Φ]]`, `Ψ = −K_ii⁻¹ K_ib` (static constraint modes) and `Φ` the lowest
+//! `n_m` eigenvectors of `K_ii φ = λ M_ii φ` (fixed-interface modes, mass-normalized).
+//! `K_ii` is factored once, `P K_ii Pᵀ = L Lᵀ` (faer sparse supernodal Cholesky, AMD ordering
+//! `P`); the constraint modes are solves with that factor. Because the mass matrix is
+//! consistent (not diagonal), the fixed-interface modes come from the symmetric
+//! shift-invert operator `C = L⁻¹ (P M_ii Pᵀ) L⁻ᵀ` (half-solves with `L`, one sparse
+//! product with `M_ii`): its eigenvalues are `μ = 1/λ` and its eigenvectors `ψ = Lᵀ P φ`.
+//! A block Krylov–Rayleigh–Ritz iteration with full reorthogonalization (blocks of
+//! `n_m + 14` vectors, started from `L⁻¹ P K_ib` plus random columns) returns the largest
+//! `μ`, i.e. the lowest `λ`. faer's single-vector Krylov–Schur
+//! (`matrix_free::eigen::partial_self_adjoint_eigen`) gave the same modes but took ~3× longer
+//! on Rotor 37, since every application of `C` is two sparse triangular solves that are far
+//! cheaper per vector on blocks. Each vector is then mapped back, `φ = Pᵀ L⁻ᵀ ψ`, and
+//! normalized so that `φᵀ M φ = 1`; `λ` is its Rayleigh quotient.
+//! Small interiors (≤ 4 blocks) are solved densely.
+//! Finally `K_r = Tᵀ K T`, `M_r = Tᵀ M T` (dense, symmetrized).
+//!
+//! # Rotation speed
+//! The imported matrices describe the component at rest: the ROM gets `K1 = K2 = 0`.
+//! Centrifugal stiffening and spin softening need the FE code's matrices at three speeds
+//! `Ω_a, Ω_b, Ω_c` (e.g. CalculiX `*STATIC` prestress + `*FREQUENCY, SOLVER=MATRIXSTORAGE`
+//! with `PERTURBATION` at each speed). The hook for that is
+//! [`speed_polynomial_from_samples`]: project each speed's stiffness with the same basis
+//! (e.g. [`project`] with the `T` of the reference speed) and fit `K0, K1, K2` exactly.
+
+use crate::model::rom::{
+    Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData,
+};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::prelude::*;
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky, supernodal::SupernodalLltRef,
+};
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use faer::{Conj, Mat, Side};
+use nalgebra::DMatrix;
+use std::collections::HashMap;
+use thiserror::Error;
+
+/// One row (= column) of an FE matrix: a node id (as numbered in the FE model) and a
+/// direction 0, 1, 2 = x, y, z of the global frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct NodeDof {
+    /// Node id of the FE model (any numbering, not necessarily contiguous).
+    pub node: usize,
+    /// Direction 0 = x, 1 = y, 2 = z.
+    pub dir: usize,
+}
+
+/// Sparse FE matrices of a component, full (both triangles) storage, SI units.
+/// DOFs that the FE model clamps are simply absent.
+#[derive(Clone, Debug)]
+pub struct ComponentMatrices {
+    /// Stiffness K (N/m), symmetric positive definite.
+    pub stiffness: SparseColMat<usize, f64>,
+    /// Consistent mass M (kg), symmetric positive definite.
+    pub mass: SparseColMat<usize, f64>,
+    /// Meaning of each row/column.
+    pub dofs: Vec<NodeDof>,
+}
+
+/// A contact node to keep as boundary DOFs: FE node id and reference position (m).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactPoint {
+    /// Node id of the FE model.
+    pub node: usize,
+    /// Position in the global frame (m).
+    pub position: [f64; 3],
+}
+
+/// Options of [`reduce_component`].
+#[derive(Clone, Debug)]
+pub struct ComponentReductionOptions {
+    /// Name stored in the ROM.
+    pub name: String,
+    /// Impeller (rotating frame) or casing (fixed frame).
+    pub component: Component,
+    /// Number n_m of fixed-interface modes to keep (≥ 1).
+    pub n_modes: usize,
+    /// Damping model stored in the ROM.
+    pub damping: Damping,
+    /// Convergence tolerance of the fixed-interface modes: residual of each eigenpair of the
+    /// shift-invert operator relative to its eigenvalue μ = 1/λ. The modes only span the
+    /// reduction basis (the reduced matrices are the exact projections) and Ritz values are
+    /// accurate to the square of the residual, so 1e-5 is ample.
+    pub eigen_tolerance: f64,
+}
+
+impl Default for ComponentReductionOptions {
+    fn default() -> Self {
+        Self {
+            name: "component".into(),
+            component: Component::Impeller,
+            n_modes: 20,
+            damping: Damping::default(),
+            eigen_tolerance: 1e-5,
+        }
+    }
+}
+
+/// Why a component cannot be reduced.
+#[derive(Debug, Error, PartialEq)]
+pub enum ComponentError {
+    #[error("{what} is {rows}×{cols}, expected {n}×{n} (one row per DOF of the DOF map)")]
+    Size {
+        what: &'static str,
+        rows: usize,
+        cols: usize,
+        n: usize,
+    },
+    #[error(
+        "contact node {node} has no {axis} DOF in the model (clamped or absent from the DOF map)"
+    )]
+    ContactDofMissing { node: usize, axis: char },
+    #[error("contact node {node} is listed twice")]
+    DuplicateContactNode { node: usize },
+    #[error("no contact nodes given")]
+    NoContactNodes,
+    #[error("n_modes = {n_modes}: must be between 1 and the {n_interior} interior DOFs")]
+    ModeCount { n_modes: usize, n_interior: usize },
+    #[error(
+        "the interior stiffness K_ii is not positive definite (is the component clamped?): {0}"
+    )]
+    NotPositiveDefinite(String),
+    #[error("the mass matrix is not positive definite on the fixed-interface modes")]
+    MassNotPositive,
+    #[error("the eigensolver converged {converged} of {wanted} fixed-interface modes")]
+    EigenNotConverged { converged: usize, wanted: usize },
+    #[error("dense eigen-solution of the reduced model failed: {0}")]
+    ReducedEigen(String),
+    #[error("sparse matrix: {0}")]
+    Sparse(String),
+    #[error("duplicate entry ({row}, {col}) (1-based; mirrored entries count as the same)")]
+    DuplicateEntry { row: usize, col: usize },
+    #[error("speed samples: {0}")]
+    SpeedSamples(String),
+}
+
+/// Builds a full-storage `n × n` sparse matrix from entries `(row, col, value)` (0-based).
+/// With `mirror`, each off-diagonal entry is also stored at `(col, row)` (input = one
+/// triangle of a symmetric matrix). Duplicate positions are an error.
+pub fn sparse_from_entries(
+    n: usize,
+    entries: &[(u32, u32, f64)],
+    mirror: bool,
+) -> Result<SparseColMat<usize, f64>, ComponentError> {
+    let mut count = vec![0usize; n + 1];
+    for &(r, c, _) in entries {
+        count[c as usize + 1] += 1;
+        if mirror && r != c {
+            count[r as usize + 1] += 1;
+        }
+    }
+    for j in 0..n {
+        count[j + 1] += count[j];
+    }
+    let col_ptr = count.clone();
+    let nnz = col_ptr[n];
+    let mut next = count;
+    let mut row_idx = vec![0usize; nnz];
+    let mut val = vec![0.0f64; nnz];
+    let mut push = |r: usize, c: usize, v: f64| {
+        let p = next[c];
+        row_idx[p] = r;
+        val[p] = v;
+        next[c] += 1;
+    };
+    for &(r, c, v) in entries {
+        push(r as usize, c as usize, v);
+        if mirror && r != c {
+            push(c as usize, r as usize, v);
+        }
+    }
+    let mut buf: Vec<(usize, f64)> = Vec::new();
+    for j in 0..n {
+        let range = col_ptr[j]..col_ptr[j + 1];
+        if row_idx[range.clone()].windows(2).all(|w| w[0] < w[1]) {
+            continue;
+        }
+        buf.clear();
+        buf.extend(range.clone().map(|p| (row_idx[p], val[p])));
+        buf.sort_unstable_by_key(|e| e.0);
+        for (k, p) in range.enumerate() {
+            if k > 0 && buf[k].0 == buf[k - 1].0 {
+                return Err(ComponentError::DuplicateEntry {
+                    row: buf[k].0.min(j) + 1,
+                    col: buf[k].0.max(j) + 1,
+                });
+            }
+            row_idx[p] = buf[k].0;
+            val[p] = buf[k].1;
+        }
+    }
+    let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+    Ok(SparseColMat::new(symbolic, val))
+}
+
+/// Copies `a` scaled by `factor` (unit conversion).
+pub fn scaled(a: &SparseColMat<usize, f64>, factor: f64) -> SparseColMat<usize, f64> {
+    let val: Vec<f64> = a.val().iter().map(|v| v * factor).collect();
+    SparseColMat::new(a.symbolic().to_owned().expect("allocation"), val)
+}
+
+/// The sub-matrix `a[rows, cols]` where `row_map[g] = Some(local row)` and `cols` lists the
+/// global columns in local order; with `lower_only`, only entries with local row ≥ local
+/// column are kept. `row_map` must be increasing on its `Some` entries (keeps rows sorted).
+fn extract(
+    a: &SparseColMat<usize, f64>,
+    row_map: &[Option<usize>],
+    n_rows: usize,
+    cols: &[usize],
+    lower_only: bool,
+) -> SparseColMat<usize, f64> {
+    let mut col_ptr = Vec::with_capacity(cols.len() + 1);
+    col_ptr.push(0usize);
+    let (mut row_idx, mut val) = (Vec::new(), Vec::new());
+    for (lc, &gc) in cols.iter().enumerate() {
+        for (gr, &v) in a.row_idx_of_col(gc).zip(a.val_of_col(gc)) {
+            if let Some(lr) = row_map[gr]
+                && (!lower_only || lr >= lc)
+            {
+                row_idx.push(lr);
+                val.push(v);
+            }
+        }
+        col_ptr.push(row_idx.len());
+    }
+    let symbolic = SymbolicSparseColMat::new_checked(n_rows, cols.len(), col_ptr, None, row_idx);
+    SparseColMat::new(symbolic, val)
+}
+
+/// Supernodal Cholesky factor `P A Pᵀ = L Lᵀ` that owns its storage.
+#[derive(Debug)]
+struct Factor {
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+    /// `fwd[i]` = original index of permuted index i.
+    fwd: Vec<usize>,
+    par: Par,
+}
+
+impl Factor {
+    /// Factors the SPD matrix whose lower triangle is `a_low`.
+    fn new(a_low: &SparseColMat<usize, f64>, par: Par) -> Result<Self, ComponentError> {
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let symbolic = factorize_symbolic_cholesky(
+            a_low.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            params,
+        )
+        .map_err(|e| ComponentError::Sparse(format!("symbolic Cholesky: {e:?}")))?;
+        let mut values = vec![0.0f64; symbolic.len_val()];
+        let mut mem =
+            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        symbolic
+            .factorize_numeric_llt(
+                &mut values,
+                a_low.as_ref(),
+                Side::Lower,
+                Default::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| ComponentError::NotPositiveDefinite(format!("{e:?}")))?;
+        let fwd = match symbolic.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..a_low.nrows()).collect(),
+        };
+        Ok(Self {
+            symbolic,
+            values,
+            fwd,
+            par,
+        })
+    }
+
+    fn n(&self) -> usize {
+        self.fwd.len()
+    }
+
+    fn supernodal(&self) -> SupernodalLltRef<'_, usize, f64> {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => SupernodalLltRef::new(s, &self.values),
+            // FORCE_SUPERNODAL guarantees the supernodal structure.
+            SymbolicCholeskyRaw::Simplicial(_) => unreachable!("supernodal factor was forced"),
+        }
+    }
+
+    fn scratch(&self, ncols: usize) -> StackReq {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => s.solve_in_place_scratch::<f64>(ncols, self.par),
+            SymbolicCholeskyRaw::Simplicial(_) => StackReq::EMPTY,
+        }
+    }
+
+    /// `x ← L⁻¹ x` (permuted space).
+    fn l_solve(&self, x: MatMut<'_, f64>, stack: &mut MemStack) {
+        self.supernodal()
+            .l_solve_with_conj(Conj::No, x, self.par, stack);
+    }
+
+    /// `x ← L⁻ᵀ x` (permuted space).
+    fn lt_solve(&self, x: MatMut<'_, f64>, stack: &mut MemStack) {
+        self.supernodal()
+            .l_transpose_solve_with_conj(Conj::No, x, self.par, stack);
+    }
+
+    /// `x ← A⁻¹ x` (original ordering); returns the intermediate `L⁻¹ P x` (permuted space).
+    fn solve(&self, mut x: MatMut<'_, f64>) -> Mat<f64> {
+        let n = self.n();
+        let mut mem = MemBuffer::new(self.scratch(x.ncols()));
+        let stack = MemStack::new(&mut mem);
+        let mut y = Mat::<f64>::zeros(n, x.ncols());
+        for j in 0..x.ncols() {
+            for i in 0..n {
+                y[(i, j)] = x[(self.fwd[i], j)];
+            }
+        }
+        self.l_solve(y.as_mut(), stack);
+        let half = y.clone();
+        self.lt_solve(y.as_mut(), stack);
+        for j in 0..x.ncols() {
+            for i in 0..n {
+                x[(self.fwd[i], j)] = y[(i, j)];
+            }
+        }
+        half
+    }
+}
+
+/// `Yᵗ = Xᵗ A` for a symmetric sparse `A` (full storage, so column j = row j) and a dense
+/// `Xᵗ` stored transposed (r × n, column i = row i of X): `Yᵗ[:, j] = Σ_i a_ij Xᵗ[:, i]`.
+/// Each stored entry costs one contiguous axpy of length r, and output columns are
+/// independent (rayon over column chunks): much faster than a sparse × dense product over
+/// a column-major X with many columns.
+fn sym_spmm_t(a: &SparseColMat<usize, f64>, xt: MatRef<'_, f64>, mut yt: MatMut<'_, f64>) {
+    use rayon::prelude::*;
+    let r = xt.nrows();
+    let n = a.ncols();
+    debug_assert!(xt.ncols() == n && yt.ncols() == n && yt.nrows() == r);
+    let x = xt.rb();
+    // Column views of a faer Mat are contiguous; split the output by columns for rayon.
+    let mut cols: Vec<ColMut<'_, f64>> = Vec::with_capacity(n);
+    let mut rest = yt.rb_mut();
+    for _ in 0..n {
+        let (c, tail) = rest.split_at_col_mut(1);
+        cols.push(c.col_mut(0));
+        rest = tail;
+    }
+    cols.par_iter_mut()
+        .with_min_len(256)
+        .enumerate()
+        .for_each(|(j, y)| {
+            let y = y.as_mut();
+            let ys = y
+                .try_as_col_major_mut()
+                .expect("contiguous column")
+                .as_slice_mut();
+            ys.fill(0.0);
+            for (i, &v) in a.row_idx_of_col(j).zip(a.val_of_col(j)) {
+                let xs = x
+                    .col(i)
+                    .try_as_col_major()
+                    .expect("contiguous column")
+                    .as_slice();
+                for (yk, xk) in ys.iter_mut().zip(xs) {
+                    *yk += v * xk;
+                }
+            }
+        });
+}
+
+/// Shift-invert operator `C = L⁻¹ (P M Pᵀ) L⁻ᵀ` (symmetric, eigenvalues `μ = 1/λ`),
+/// applied to blocks of vectors.
+struct ShiftInvert<'a> {
+    factor: &'a Factor,
+    mass: &'a SparseColMat<usize, f64>,
+}
+
+impl ShiftInvert<'_> {
+    /// `out = C rhs` for a block of columns.
+    fn apply(&self, mut out: MatMut<'_, f64>, rhs: MatRef<'_, f64>) {
+        let n = self.factor.n();
+        let p = rhs.ncols();
+        let fwd = &self.factor.fwd;
+        let mut mem = MemBuffer::new(self.factor.scratch(p));
+        let stack = MemStack::new(&mut mem);
+        let mut y = rhs.to_owned();
+        self.factor.lt_solve(y.as_mut(), stack);
+        // Back to the original ordering (and transposed for the product with M), then forward.
+        let mut ut = Mat::<f64>::zeros(p, n);
+        for j in 0..p {
+            for i in 0..n {
+                ut[(j, fwd[i])] = y[(i, j)];
+            }
+        }
+        let mut vt = Mat::<f64>::zeros(p, n);
+        sym_spmm_t(self.mass, ut.as_ref(), vt.as_mut());
+        for j in 0..p {
+            for i in 0..n {
+                out[(i, j)] = vt[(j, fwd[i])];
+            }
+        }
+        self.factor.l_solve(out, stack);
+    }
+}
+
+/// Deterministic pseudo-random block with entries in [−0.5, 0.5) (xorshift64).
+fn random_block(n: usize, p: usize, seed: u64) -> Mat<f64> {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ seed.wrapping_mul(0xD1B5_4A32_D192_ED03);
+    Mat::<f64>::from_fn(n, p, |_, _| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    })
+}
+
+/// Removes from `w` its components in the span of the orthonormal columns of `q`
+/// (block classical Gram–Schmidt, twice for stability).
+fn project_out(q: MatRef<'_, f64>, w: &mut Mat<f64>) {
+    if q.ncols() == 0 {
+        return;
+    }
+    for _ in 0..2 {
+        let c = q.transpose() * &*w;
+        *w -= q * &c;
+    }
+}
+
+/// Orthonormalizes the columns of `w`, already orthogonal to the orthonormal columns of
+/// `q`, among themselves: Cholesky-QR twice (`W ← W R⁻¹` with `RᵀR = WᵀW`, BLAS-3). If the
+/// Gram matrix is numerically singular (the Krylov space is exhausted in some direction),
+/// falls back to modified Gram–Schmidt where a vanishing column is replaced by a fresh
+/// random one orthogonalized against `q` and the previous columns.
+fn orthonormalize(q: MatRef<'_, f64>, w: &mut Mat<f64>, seed: u64) {
+    for _ in 0..2 {
+        let gram = w.transpose() * &*w;
+        let Ok(llt) = gram.llt(Side::Lower) else {
+            return orthonormalize_mgs(q, w, seed);
+        };
+        let l = llt.L();
+        // Condition check: a tiny pivot means near-dependent columns, which CholQR would
+        // amplify; use the robust path then.
+        let d = l.diagonal().column_vector();
+        let (dmin, dmax) = (0..d.nrows()).fold((f64::INFINITY, 0.0f64), |(a, b), i| {
+            (a.min(d[i]), b.max(d[i]))
+        });
+        if dmin.is_nan() || dmin <= 1e-6 * dmax {
+            return orthonormalize_mgs(q, w, seed);
+        }
+        // W ← W L⁻ᵀ, i.e. solve L Wᵀ = Wᵀ.
+        let mut wt = w.transpose().to_owned();
+        l.solve_lower_triangular_in_place(wt.as_mut());
+        *w = wt.transpose().to_owned();
+    }
+}
+
+/// Modified Gram–Schmidt (twice) fallback of [`orthonormalize`].
+fn orthonormalize_mgs(q: MatRef<'_, f64>, w: &mut Mat<f64>, seed: u64) {
+    let n = w.nrows();
+    for j in 0..w.ncols() {
+        let mut attempt = 0u64;
+        loop {
+            let before = w.col(j).norm_l2();
+            for _ in 0..2 {
+                let (done, mut rest) = w.as_mut().split_at_col_mut(j);
+                let mut wj = rest.rb_mut().col_mut(0);
+                for k in 0..j {
+                    let d = done.rb().col(k).transpose() * wj.rb();
+                    wj -= done.rb().col(k) * Scale(d);
+                }
+            }
+            let after = w.col(j).norm_l2();
+            if after > 1e-10 * before && after > 0.0 {
+                let mut wj = w.col_mut(j);
+                wj *= Scale(1.0 / after);
+                break;
+            }
+            attempt += 1;
+            let mut fresh = random_block(n, 1, seed + 1000 * attempt + j as u64);
+            project_out(q, &mut fresh);
+            w.col_mut(j).copy_from(fresh.col(0));
+        }
+    }
+}
+
+/// Block size of the block Krylov solver for `n_modes` wanted eigenpairs.
+fn block_size(n_modes: usize) -> usize {
+    n_modes + 14
+}
+
+/// Whether the interior problem is too small for the block Krylov solver (solved densely).
+fn solve_densely(n_modes: usize, n_interior: usize) -> bool {
+    n_interior <= 4 * block_size(n_modes)
+}
+
+/// Lowest `n_modes` eigenpairs of `K_ii φ = λ M_ii φ` (λ in (rad/s)², ascending; φ
+/// mass-normalized columns), from the factor of `K_ii` (see the module documentation).
+///
+/// Block Krylov–Rayleigh–Ritz on the shift-invert operator `C`: the subspace
+/// `span{Q₀, C Q₀, C² Q₀, …}` (`Q₀` = the columns of `start`, completed with random ones) grows by blocks of `p = n_modes + 14` vectors (fully
+/// reorthogonalized, so no spurious copies) until the `n_modes` largest Ritz pairs `(θ, x)`
+/// of `C` have residuals `‖C x − θ x‖ ≤ tolerance · θ`. The residual of a Ritz vector
+/// `x = Q y` is `(I − Q Qᵀ) C Q_last y_last` (earlier blocks are mapped into the basis), so
+/// it comes from the Gram matrix of the next, not yet normalized, block at no extra cost.
+/// Blocks make each application of `C` (two triangular solves and a product with `M`)
+/// a BLAS-3 operation on `p` columns, many times cheaper per vector than single-vector
+/// Krylov–Schur (faer's `partial_self_adjoint_eigen`), which took ~60 s on Rotor 37.
+fn fixed_interface_modes(
+    factor: &Factor,
+    m_ii: &SparseColMat<usize, f64>,
+    n_modes: usize,
+    tolerance: f64,
+    start: MatRef<'_, f64>,
+) -> Result<(Vec<f64>, Mat<f64>), ComponentError> {
+    let n = factor.n();
+    let op = ShiftInvert { factor, mass: m_ii };
+    let p = block_size(n_modes).min(n);
+    let max_dim = n.min(12 * p);
+    let mut q = Mat::<f64>::zeros(n, max_dim);
+    let mut aq = Mat::<f64>::zeros(n, max_dim);
+    let mut h = Mat::<f64>::zeros(max_dim, max_dim);
+    let mut block = random_block(n, p, 0);
+    let n_start = start.ncols().min(p);
+    block
+        .as_mut()
+        .subcols_mut(0, n_start)
+        .copy_from(start.subcols(0, n_start));
+    orthonormalize(q.as_ref().subcols(0, 0), &mut block, 0);
+    let (mut k, mut width) = (0usize, p); // basis size before the newest block, its width
+    loop {
+        // Append the newest block, apply C to it, and extend H = Qᵀ C Q.
+        q.as_mut().subcols_mut(k, width).copy_from(&block);
+        op.apply(
+            aq.as_mut().subcols_mut(k, width),
+            q.as_ref().subcols(k, width),
+        );
+        let cross = q.as_ref().subcols(0, k + width).transpose() * aq.as_ref().subcols(k, width);
+        for j in 0..width {
+            for i in 0..k + width {
+                h[(i, k + j)] = cross[(i, j)];
+                h[(k + j, i)] = cross[(i, j)];
+            }
+        }
+        let last = k;
+        k += width;
+        // Rayleigh–Ritz: the wanted pairs are the largest θ (eigenvalues come ascending).
+        let hk = Mat::<f64>::from_fn(k, k, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
+        let evd = hk
+            .self_adjoint_eigen(Side::Lower)
+            .map_err(|e| ComponentError::ReducedEigen(format!("{e:?}")))?;
+        let theta = evd.S().column_vector();
+        let want = n_modes.min(k);
+        let y = evd.U().subcols(k - want, want);
+        if !(theta[k - 1].is_finite() && theta[k - 1] > 0.0) {
+            return Err(ComponentError::MassNotPositive);
+        }
+        // Next block W = (I − QQᵀ) C Q_last and the residuals ‖W y_last‖.
+        block = aq.as_ref().subcols(last, width).to_owned();
+        project_out(q.as_ref().subcols(0, k), &mut block);
+        let gram = block.transpose() * &block;
+        let y_last = y.subrows(last, width);
+        let g_y = &gram * y_last;
+        let converged = (0..want)
+            .filter(|&j| {
+                let r2: f64 = (0..width).map(|i| y_last[(i, j)] * g_y[(i, j)]).sum();
+                r2.max(0.0).sqrt() <= tolerance * theta[k - want + j]
+            })
+            .count();
+        if (converged == want && want == n_modes) || k == n {
+            if want < n_modes {
+                return Err(ComponentError::EigenNotConverged {
+                    converged: want,
+                    wanted: n_modes,
+                });
+            }
+            let x = q.as_ref().subcols(0, k) * y;
+            return finish_modes(factor, m_ii, x);
+        }
+        if k == max_dim {
+            return Err(ComponentError::EigenNotConverged {
+                converged,
+                wanted: n_modes,
+            });
+        }
+        width = p.min(max_dim - k);
+        if width < block.ncols() {
+            block = block.subcols(0, width).to_owned();
+        }
+        orthonormalize(q.as_ref().subcols(0, k), &mut block, k as u64);
+    }
+}
+
+/// Maps Ritz vectors ψ of `C` back to mass-normalized modes `φ = Pᵀ L⁻ᵀ ψ`, with
+/// eigenvalues from the Rayleigh quotient `λ = φᵀKφ / φᵀMφ = ψᵀψ / φᵀMφ`, sorted ascending.
+fn finish_modes(
+    factor: &Factor,
+    m_ii: &SparseColMat<usize, f64>,
+    mut vecs: Mat<f64>,
+) -> Result<(Vec<f64>, Mat<f64>), ComponentError> {
+    let n = factor.n();
+    let n_modes = vecs.ncols();
+    let psi_norm2: Vec<f64> = (0..n_modes)
+        .map(|j| vecs.col(j).squared_norm_l2())
+        .collect();
+    let mut stack_mem = MemBuffer::new(factor.scratch(n_modes));
+    factor.lt_solve(vecs.as_mut(), MemStack::new(&mut stack_mem));
+    let mut phi_t = Mat::<f64>::zeros(n_modes, n);
+    for j in 0..n_modes {
+        for i in 0..n {
+            phi_t[(j, factor.fwd[i])] = vecs[(i, j)];
+        }
+    }
+    let mut m_phi_t = Mat::<f64>::zeros(n_modes, n);
+    sym_spmm_t(m_ii, phi_t.as_ref(), m_phi_t.as_mut());
+    let mut modes: Vec<(f64, usize, f64)> = Vec::with_capacity(n_modes);
+    for j in 0..n_modes {
+        let mm: f64 = (0..n).map(|i| phi_t[(j, i)] * m_phi_t[(j, i)]).sum();
+        if !(mm.is_finite() && mm > 0.0) {
+            return Err(ComponentError::MassNotPositive);
+        }
+        modes.push((psi_norm2[j] / mm, j, 1.0 / mm.sqrt()));
+    }
+    modes.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let lambdas = modes.iter().map(|m| m.0).collect();
+    let sorted = Mat::<f64>::from_fn(n, n_modes, |i, j| {
+        let (_, c, s) = modes[j];
+        phi_t[(c, i)] * s
+    });
+    Ok((lambdas, sorted))
+}
+
+/// `Tᵀ A T` for a sparse symmetric `A` (full storage) and a dense basis `T` (n × r), symmetrized.
+pub fn project(a: &SparseColMat<usize, f64>, t: MatRef<'_, f64>) -> DMatrix<f64> {
+    let tt = t.transpose().to_owned();
+    let mut yt = Mat::<f64>::zeros(t.ncols(), t.nrows());
+    sym_spmm_t(a, tt.as_ref(), yt.as_mut());
+    let r = &yt * t;
+    let k = r.ncols();
+    DMatrix::from_fn(k, k, |i, j| 0.5 * (r[(i, j)] + r[(j, i)]))
+}
+
+/// Lowest `count` eigenpairs of the dense symmetric-definite pencil `(k, m)`:
+/// frequencies (Hz) ascending and `m`-normalized eigenvectors (columns).
+pub fn dense_modes(
+    k: &DMatrix<f64>,
+    m: &DMatrix<f64>,
+    count: usize,
+) -> Result<(Vec<f64>, DMatrix<f64>), ComponentError> {
+    let (lambdas, x) = dense_eigen(k, m, count)?;
+    let freqs = lambdas
+        .iter()
+        .map(|l| l.max(0.0).sqrt() / (2.0 * std::f64::consts::PI))
+        .collect();
+    Ok((freqs, x))
+}
+
+/// Lowest `count` eigenvalues λ (ascending) and `m`-normalized eigenvectors of `k x = λ m x`.
+fn dense_eigen(
+    k: &DMatrix<f64>,
+    m: &DMatrix<f64>,
+    count: usize,
+) -> Result<(Vec<f64>, DMatrix<f64>), ComponentError> {
+    let chol = m
+        .clone()
+        .cholesky()
+        .ok_or_else(|| ComponentError::ReducedEigen("reduced mass not positive definite".into()))?;
+    let l = chol.l();
+    let a = l
+        .solve_lower_triangular(k)
+        .and_then(|x| l.solve_lower_triangular(&x.transpose()))
+        .ok_or_else(|| ComponentError::ReducedEigen("singular Cholesky factor".into()))?;
+    let a = (&a + a.transpose()) * 0.5;
+    let dim = a.nrows();
+    let eig = a.symmetric_eigen();
+    let mut order: Vec<usize> = (0..eig.eigenvalues.len()).collect();
+    order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
+    let count = count.min(order.len());
+    let lambdas = order[..count].iter().map(|&i| eig.eigenvalues[i]).collect();
+    let q = DMatrix::from_fn(dim, count, |r, c| eig.eigenvectors[(r, order[c])]);
+    let x = l
+        .transpose()
+        .solve_upper_triangular(&q)
+        .ok_or_else(|| ComponentError::ReducedEigen("singular Cholesky factor".into()))?;
+    Ok((lambdas, x))
+}
+
+/// Exact fit of `K(Ω) = K0 + Ω² K1 + Ω⁴ K2` through reduced stiffness matrices at three
+/// distinct speeds (rad/s): the hook for centrifugal effects of imported models (see module
+/// doc). Returns `[K0, K1, K2]` in N/m, N/m/(rad/s)², N/m/(rad/s)⁴.
+pub fn speed_polynomial_from_samples(
+    samples: &[(f64, DMatrix<f64>); 3],
+) -> Result<[DMatrix<f64>; 3], ComponentError> {
+    let x: Vec<f64> = samples.iter().map(|s| s.0 * s.0).collect();
+    let shape = samples[0].1.shape();
+    if samples.iter().any(|s| s.1.shape() != shape) {
+        return Err(ComponentError::SpeedSamples(
+            "matrices of different sizes".into(),
+        ));
+    }
+    if (x[0] - x[1]).abs() * (x[1] - x[2]).abs() * (x[0] - x[2]).abs() == 0.0
+        || x.iter().any(|v| !v.is_finite())
+    {
+        return Err(ComponentError::SpeedSamples(
+            "the three speeds must be finite with distinct Ω²".into(),
+        ));
+    }
+    // Lagrange interpolation in Ω²: K(x) = Σ_a K_a Π_{b≠a} (x − x_b)/(x_a − x_b).
+    let mut out = [
+        DMatrix::zeros(shape.0, shape.1),
+        DMatrix::zeros(shape.0, shape.1),
+        DMatrix::zeros(shape.0, shape.1),
+    ];
+    for a in 0..3 {
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        let d = (x[a] - x[b]) * (x[a] - x[c]);
+        // (x − x_b)(x − x_c) = x_b x_c − (x_b + x_c) x + x².
+        let coef = [x[b] * x[c] / d, -(x[b] + x[c]) / d, 1.0 / d];
+        for (o, cf) in out.iter_mut().zip(coef) {
+            *o += &samples[a].1 * cf;
+        }
+    }
+    Ok(out)
+}
+
+/// Craig–Bampton reduction of a clamped component with the contact nodes' DOFs kept
+/// (see the module documentation): a one-sector, k = 0 [`CyclicRom`] at rest (K1 = K2 = 0),
+/// with the modal data (lowest `n_modes` frequencies of the reduced model, Hz, and their
+/// mass-normalized shapes at the contact DOFs) at Ω = 0. `contacts` is in row order
+/// (leading → trailing edge). `provenance` is left `null` for the caller to fill.
+pub fn reduce_component(
+    mats: &ComponentMatrices,
+    contacts: &[ContactPoint],
+    opts: &ComponentReductionOptions,
+) -> Result<CyclicRom, ComponentError> {
+    let n = mats.dofs.len();
+    for (what, a) in [("stiffness", &mats.stiffness), ("mass", &mats.mass)] {
+        if a.nrows() != n || a.ncols() != n {
+            return Err(ComponentError::Size {
+                what,
+                rows: a.nrows(),
+                cols: a.ncols(),
+                n,
+            });
+        }
+    }
+    if contacts.is_empty() {
+        return Err(ComponentError::NoContactNodes);
+    }
+    let index: HashMap<NodeDof, usize> =
+        mats.dofs.iter().enumerate().map(|(i, d)| (*d, i)).collect();
+    let mut boundary = Vec::with_capacity(3 * contacts.len());
+    let mut is_boundary = vec![false; n];
+    for c in contacts {
+        for dir in 0..3 {
+            let &g = index.get(&NodeDof { node: c.node, dir }).ok_or(
+                ComponentError::ContactDofMissing {
+                    node: c.node,
+                    axis: ['x', 'y', 'z'][dir],
+                },
+            )?;
+            if is_boundary[g] {
+                return Err(ComponentError::DuplicateContactNode { node: c.node });
+            }
+            is_boundary[g] = true;
+            boundary.push(g);
+        }
+    }
+    let interior: Vec<usize> = (0..n).filter(|&g| !is_boundary[g]).collect();
+    let (nb, ni) = (boundary.len(), interior.len());
+    if opts.n_modes == 0 || opts.n_modes > ni {
+        return Err(ComponentError::ModeCount {
+            n_modes: opts.n_modes,
+            n_interior: ni,
+        });
+    }
+    let mut imap = vec![None; n];
+    for (l, &g) in interior.iter().enumerate() {
+        imap[g] = Some(l);
+    }
+    let par = faer::get_global_parallelism();
+    let k_ii_low = extract(&mats.stiffness, &imap, ni, &interior, true);
+    let m_ii = extract(&mats.mass, &imap, ni, &interior, false);
+    let factor = Factor::new(&k_ii_low, par)?;
+    drop(k_ii_low);
+
+    // Constraint modes Ψ = −K_ii⁻¹ K_ib.
+    let k_ib = extract(&mats.stiffness, &imap, ni, &boundary, false);
+    let mut psi = k_ib.to_dense();
+    drop(k_ib);
+    // `L⁻¹ P K_ib = Lᵀ P K_ii⁻¹ K_ib`: the static responses to boundary loads in the space of
+    // the shift-invert operator, dominated by low modes: a good start for the Krylov space.
+    let start = factor.solve(psi.as_mut());
+    let phi = if !solve_densely(opts.n_modes, ni) {
+        fixed_interface_modes(
+            &factor,
+            &m_ii,
+            opts.n_modes,
+            opts.eigen_tolerance,
+            start.as_ref(),
+        )?
+        .1
+    } else {
+        // Small interior: the Krylov space would be the whole space; solve densely.
+        let k_ii = extract(&mats.stiffness, &imap, ni, &interior, false);
+        let dense = |a: &SparseColMat<usize, f64>| {
+            let d = a.to_dense();
+            DMatrix::from_fn(ni, ni, |i, j| d[(i, j)])
+        };
+        let (_, x) = dense_eigen(&dense(&k_ii), &dense(&m_ii), opts.n_modes)?;
+        Mat::<f64>::from_fn(ni, opts.n_modes, |i, j| x[(i, j)])
+    };
+    drop(m_ii);
+    drop(factor);
+
+    // T over the original DOF ordering; columns [boundary (3 n_c); modes (n_m)].
+    let nr = nb + opts.n_modes;
+    let mut t = Mat::<f64>::zeros(n, nr);
+    for (c, &g) in boundary.iter().enumerate() {
+        t[(g, c)] = 1.0;
+    }
+    for (l, &g) in interior.iter().enumerate() {
+        for c in 0..nb {
+            t[(g, c)] = -psi[(l, c)];
+        }
+        for c in 0..opts.n_modes {
+            t[(g, nb + c)] = phi[(l, c)];
+        }
+    }
+    drop(psi);
+    drop(phi);
+    let k_r = project(&mats.stiffness, t.as_ref());
+    let m_r = project(&mats.mass, t.as_ref());
+    drop(t);
+
+    let (freqs, shapes) = dense_modes(&k_r, &m_r, opts.n_modes)?;
+    let shapes_re: Vec<Vec<f64>> = (0..freqs.len())
+        .map(|p| (0..nb).map(|r| shapes[(r, p)]).collect())
+        .collect();
+    let shapes_im = vec![vec![0.0; nb]; freqs.len()];
+    let zeros = DMatrix::zeros(nr, nr);
+    Ok(CyclicRom {
+        name: opts.name.clone(),
+        component: opts.component,
+        n_sectors: 1,
+        contact_nodes: contacts
+            .iter()
+            .enumerate()
+            .map(|(row, c)| ContactNode {
+                position: c.position,
+                row,
+            })
+            .collect(),
+        harmonics: vec![HarmonicBlock {
+            nodal_diameter: 0,
+            n_modes: opts.n_modes,
+            mass: HermitianMatrix::real(m_r),
+            stiffness: [
+                HermitianMatrix::real(k_r),
+                HermitianMatrix::real(zeros.clone()),
+                HermitianMatrix::real(zeros),
+            ],
+        }],
+        modal_data: vec![ModalData {
+            nodal_diameter: 0,
+            omega: vec![0.0],
+            frequencies: vec![freqs],
+            shapes_re: vec![shapes_re],
+            shapes_im: vec![shapes_im],
+        }],
+        damping: opts.damping,
+        provenance: serde_json::Value::Null,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// A 3-D lattice of point masses on axial springs along x, y, z (a cubic grid
+    /// nx × ny × nz of nodes, each with 3 DOFs), clamped at x = 0, with a consistent-like
+    /// (banded, non-diagonal) mass: mass m on each node plus coupling m/10 along springs.
+    pub(crate) fn lattice(nx: usize, ny: usize, nz: usize) -> ComponentMatrices {
+        let id = |i: usize, j: usize, k: usize| 1 + i + nx * (j + ny * k);
+        let mut dofs = Vec::new();
+        let mut pos = HashMap::new();
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 1..nx {
+                    for dir in 0..3 {
+                        pos.insert((id(i, j, k), dir), dofs.len());
+                        dofs.push(NodeDof {
+                            node: id(i, j, k),
+                            dir,
+                        });
+                    }
+                }
+            }
+        }
+        let n = dofs.len();
+        let mut ke = Vec::new();
+        let mut me = Vec::new();
+        let add = |es: &mut Vec<(u32, u32, f64)>, a: Option<usize>, b: Option<usize>, v: f64| {
+            // element matrix v [[1, −1], [−1, 1]] (or [[2,1],[1,2]]/… for mass handled by caller)
+            if let Some(a) = a {
+                es.push((a as u32, a as u32, v));
+            }
+            if let Some(b) = b {
+                es.push((b as u32, b as u32, v));
+            }
+            if let (Some(a), Some(b)) = (a, b) {
+                es.push((a.min(b) as u32, a.max(b) as u32, -v));
+            }
+        };
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let here = |dir| pos.get(&(id(i, j, k), dir)).copied();
+                    for (di, dj, dk) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)] {
+                        let (i2, j2, k2) = (i + di, j + dj, k + dk);
+                        if i2 >= nx || j2 >= ny || k2 >= nz {
+                            continue;
+                        }
+                        for dir in 0..3 {
+                            let there = pos.get(&(id(i2, j2, k2), dir)).copied();
+                            let stiff =
+                                if dir == 0 { 3.0e6 } else { 1.0e6 } * (1.0 + 0.1 * dir as f64);
+                            add(&mut ke, here(dir), there, stiff);
+                            // consistent-like mass: +m/6 diagonal, +m/12 off-diagonal (positive).
+                            if let (Some(a), Some(b)) = (here(dir), there) {
+                                me.push((a.min(b) as u32, a.max(b) as u32, 0.1));
+                            }
+                            for d in [here(dir), there].into_iter().flatten() {
+                                me.push((d as u32, d as u32, 0.2));
+                            }
+                        }
+                    }
+                    for dir in 0..3 {
+                        if let Some(a) = here(dir) {
+                            me.push((a as u32, a as u32, 1.0));
+                        }
+                    }
+                }
+            }
+        }
+        // Sum duplicates through a dense detour (test sizes are small).
+        let dense = |es: &[(u32, u32, f64)]| {
+            let mut d = DMatrix::<f64>::zeros(n, n);
+            for &(r, c, v) in es {
+                d[(r as usize, c as usize)] += v;
+            }
+            let tri: Vec<(u32, u32, f64)> = (0..n)
+                .flat_map(|c| (0..=c).map(move |r| (r, c)))
+                .filter(|&(r, c)| d[(r, c)] != 0.0)
+                .map(|(r, c)| (r as u32, c as u32, d[(r, c)]))
+                .collect();
+            sparse_from_entries(n, &tri, true).unwrap()
+        };
+        ComponentMatrices {
+            stiffness: dense(&ke),
+            mass: dense(&me),
+            dofs,
+        }
+    }
+
+    fn to_dmatrix(a: &SparseColMat<usize, f64>) -> DMatrix<f64> {
+        let d = a.to_dense();
+        DMatrix::from_fn(d.nrows(), d.ncols(), |i, j| d[(i, j)])
+    }
+
+    #[test]
+    fn sparse_builder_mirrors_and_rejects_duplicates() {
+        let a = sparse_from_entries(
+            3,
+            &[(0, 0, 2.0), (0, 2, -1.0), (1, 1, 3.0), (2, 2, 4.0)],
+            true,
+        )
+        .unwrap();
+        let d = to_dmatrix(&a);
+        assert_eq!(
+            d,
+            DMatrix::from_row_slice(3, 3, &[2., 0., -1., 0., 3., 0., -1., 0., 4.])
+        );
+        assert_eq!(
+            sparse_from_entries(2, &[(0, 1, 1.0), (1, 1, 1.0), (0, 1, 2.0)], true).unwrap_err(),
+            ComponentError::DuplicateEntry { row: 1, col: 2 }
+        );
+    }
+
+    #[test]
+    fn fixed_interface_modes_match_dense_solution() {
+        // Large enough that the block Krylov subspace stays well below the problem size.
+        let mats = lattice(10, 6, 5);
+        let n = mats.dofs.len();
+        let all: Vec<usize> = (0..n).collect();
+        let map: Vec<Option<usize>> = (0..n).map(Some).collect();
+        let low = extract(&mats.stiffness, &map, n, &all, true);
+        let factor = Factor::new(&low, Par::Seq).unwrap();
+        // Solve check against the dense matrix.
+        let kd = to_dmatrix(&mats.stiffness);
+        let md = to_dmatrix(&mats.mass);
+        let mut x = Mat::<f64>::from_fn(n, 2, |i, j| (i + 3 * j) as f64 / n as f64);
+        let b = x.clone();
+        factor.solve(x.as_mut());
+        let xd = DMatrix::from_fn(n, 2, |i, j| x[(i, j)]);
+        let bd = DMatrix::from_fn(n, 2, |i, j| b[(i, j)]);
+        assert!((&kd * &xd - &bd).amax() < 1e-12 * bd.amax());
+
+        let (lam, phi) = fixed_interface_modes(
+            &factor,
+            &mats.mass,
+            8,
+            1e-10,
+            Mat::<f64>::zeros(n, 0).as_ref(),
+        )
+        .unwrap();
+        let (f_ref, _) = dense_modes(&kd, &md, 8).unwrap();
+        for (l, f) in lam.iter().zip(&f_ref) {
+            let f_sparse = l.sqrt() / (2.0 * std::f64::consts::PI);
+            assert_relative_eq!(f_sparse, *f, max_relative = 1e-9);
+        }
+        let ph = DMatrix::from_fn(n, 8, |i, j| phi[(i, j)]);
+        let gram = ph.transpose() * &md * &ph;
+        assert!((gram - DMatrix::identity(8, 8)).amax() < 1e-8);
+        let kk = ph.transpose() * &kd * &ph;
+        for p in 0..8 {
+            assert_relative_eq!(kk[(p, p)], lam[p], max_relative = 1e-8);
+        }
+    }
+
+    #[test]
+    fn craig_bampton_converges_to_full_model() {
+        let mats = lattice(8, 3, 2);
+        let contacts: Vec<ContactPoint> = [8usize, 16, 24]
+            .iter()
+            .map(|&node| ContactPoint {
+                node,
+                position: [node as f64 * 1e-3, 0.0, 0.0],
+            })
+            .collect();
+        let opts = ComponentReductionOptions {
+            n_modes: 30,
+            ..Default::default()
+        };
+        let rom = reduce_component(&mats, &contacts, &opts).unwrap();
+        assert_eq!(rom.validate(), Ok(()));
+        assert_eq!(rom.n_sectors, 1);
+        assert_eq!(rom.n_boundary(), 9);
+        let kd = to_dmatrix(&mats.stiffness);
+        let md = to_dmatrix(&mats.mass);
+        let (f_full, _) = dense_modes(&kd, &md, 5).unwrap();
+        let f_rom = &rom.modal_data[0].frequencies[0];
+        // Fewer modes: a nested Rayleigh–Ritz subspace, so frequencies are upper bounds
+        // that decrease as modes are added.
+        let few = ComponentReductionOptions {
+            n_modes: 10,
+            ..Default::default()
+        };
+        let f_few =
+            reduce_component(&mats, &contacts, &few).unwrap().modal_data[0].frequencies[0].clone();
+        for p in 0..5 {
+            assert!(f_rom[p] >= f_full[p] * (1.0 - 1e-12));
+            assert!(f_few[p] >= f_rom[p] * (1.0 - 1e-12));
+        }
+        // All interior modes kept: the basis spans the whole space, the reduction is exact.
+        let all = ComponentReductionOptions {
+            n_modes: mats.dofs.len() - 9,
+            ..Default::default()
+        };
+        let f_all =
+            reduce_component(&mats, &contacts, &all).unwrap().modal_data[0].frequencies[0].clone();
+        for p in 0..5 {
+            assert_relative_eq!(f_all[p], f_full[p], max_relative = 1e-9);
+        }
+        // Modal block of K_r is diag(λ), decoupled from the boundary; modal mass block is I.
+        let h = &rom.harmonics[0];
+        let k = &h.stiffness[0].re;
+        let m = &h.mass.re;
+        for a in 9..9 + 30 {
+            assert_relative_eq!(m[(a, a)], 1.0, max_relative = 1e-8);
+            for b in 0..9 {
+                assert!(k[(a, b)].abs() < 1e-6 * k[(a, a)]);
+            }
+        }
+        // The boundary block of K_r is the static condensation (Guyan) of K.
+        let dofs = &mats.dofs;
+        let bset: Vec<usize> = contacts
+            .iter()
+            .flat_map(|c| {
+                (0..3).map(move |d| {
+                    dofs.iter()
+                        .position(|x| {
+                            *x == NodeDof {
+                                node: c.node,
+                                dir: d,
+                            }
+                        })
+                        .unwrap()
+                })
+            })
+            .collect();
+        let iset: Vec<usize> = (0..kd.nrows()).filter(|g| !bset.contains(g)).collect();
+        let sub =
+            |r: &[usize], c: &[usize]| DMatrix::from_fn(r.len(), c.len(), |i, j| kd[(r[i], c[j])]);
+        let guyan = sub(&bset, &bset)
+            - sub(&bset, &iset) * sub(&iset, &iset).lu().solve(&sub(&iset, &bset)).unwrap();
+        let kbb = k.view((0, 0), (9, 9)).into_owned();
+        assert!((kbb - &guyan).amax() < 1e-8 * guyan.amax());
+    }
+
+    #[test]
+    fn reduction_errors_are_reported() {
+        let mats = lattice(4, 2, 2);
+        let ok = ContactPoint {
+            node: 4,
+            position: [0.0; 3],
+        };
+        let clamped = ContactPoint {
+            node: 1,
+            position: [0.0; 3],
+        };
+        let opts = ComponentReductionOptions {
+            n_modes: 4,
+            ..Default::default()
+        };
+        assert_eq!(
+            reduce_component(&mats, &[ok.clone(), clamped], &opts).unwrap_err(),
+            ComponentError::ContactDofMissing { node: 1, axis: 'x' }
+        );
+        assert_eq!(
+            reduce_component(&mats, &[ok.clone(), ok.clone()], &opts).unwrap_err(),
+            ComponentError::DuplicateContactNode { node: 4 }
+        );
+        let bad = ComponentReductionOptions {
+            n_modes: 0,
+            ..Default::default()
+        };
+        assert!(matches!(
+            reduce_component(&mats, std::slice::from_ref(&ok), &bad),
+            Err(ComponentError::ModeCount { .. })
+        ));
+        // An unclamped (singular) stiffness is caught by the Cholesky.
+        let mut free = mats.clone();
+        free.stiffness = sparse_from_entries(free.dofs.len(), &[], true).unwrap();
+        assert!(matches!(
+            reduce_component(&free, &[ok], &opts),
+            Err(ComponentError::NotPositiveDefinite(_))
+        ));
+    }
+
+    #[test]
+    fn orthonormalize_handles_dependent_columns() {
+        let n = 200;
+        let mut q = random_block(n, 5, 7);
+        orthonormalize(Mat::<f64>::zeros(n, 0).as_ref(), &mut q, 1);
+        for dependent in [false, true] {
+            let mut w = random_block(n, 6, 9);
+            if dependent {
+                // Column 3 = column 1 + a multiple of q's columns: vanishes after projection.
+                let c1 = w.col(1).to_owned() + q.col(0) * Scale(2.0);
+                w.col_mut(3).copy_from(&c1);
+            }
+            project_out(q.as_ref(), &mut w);
+            orthonormalize(q.as_ref(), &mut w, 3);
+            let g = w.transpose() * &w;
+            let c = q.transpose() * &w;
+            for i in 0..6 {
+                for j in 0..6 {
+                    let e = if i == j { 1.0 } else { 0.0 };
+                    assert!(
+                        (g[(i, j)] - e).abs() < 1e-12,
+                        "dependent {dependent}: {:?}",
+                        g[(i, j)]
+                    );
+                }
+                for r in 0..5 {
+                    assert!(c[(r, i)].abs() < 1e-12);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn speed_polynomial_recovers_coefficients() {
+        let k0 = DMatrix::from_row_slice(2, 2, &[4.0, 1.0, 1.0, 3.0]);
+        let k1 = DMatrix::from_row_slice(2, 2, &[0.5, -0.2, -0.2, 0.1]);
+        let k2 = DMatrix::from_row_slice(2, 2, &[1e-3, 0.0, 0.0, 2e-3]);
+        let at = |w: f64| &k0 + &k1 * w.powi(2) + &k2 * w.powi(4);
+        let fit =
+            speed_polynomial_from_samples(&[(0.0, at(0.0)), (10.0, at(10.0)), (25.0, at(25.0))])
+                .unwrap();
+        for (f, e) in fit.iter().zip([&k0, &k1, &k2]) {
+            assert!((f - e).amax() < 1e-9 * e.amax().max(1.0));
+        }
+        assert!(
+            speed_polynomial_from_samples(&[(1.0, at(1.0)), (-1.0, at(1.0)), (2.0, at(2.0))])
+                .is_err()
+        );
+    }
+}
