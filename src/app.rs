@@ -4,17 +4,14 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use std::path::PathBuf;
-
 use anyhow::{Context, Result};
 
 use crate::dynamics::structure::Structure;
-use crate::io::rom_file;
-use crate::model::build::{
-    BuildError, CasingSpec, ImpellerSpec, ModelSpec, build_casing, build_impeller,
-};
-use crate::model::rom::{CyclicRom, ROM_FORMAT_VERSION};
-use crate::sweep::planner::{canonical_json, fnv1a64};
+use crate::io::{model_cache, rom_file};
+use crate::model::build::{ModelSpec, build_casing, build_impeller};
+
+pub use crate::io::model_cache::{casing_rom, impeller_rom};
+use crate::model::rom::CyclicRom;
 
 /// `rubscan model info`: a human-readable summary of a ROM file (sizes, frequencies per
 /// nodal diameter at the lowest and highest rotation speed of its modal data).
@@ -87,54 +84,6 @@ pub fn read_model_spec(path: Option<&Path>) -> Result<ModelSpec> {
     ModelSpec::from_json(value).with_context(|| path.display().to_string())
 }
 
-/// Directory of the ROM cache: `$RUBSCAN_CACHE_DIR`, else `$XDG_CACHE_HOME/rubscan`, else
-/// `$HOME/.cache/rubscan`, else `.rubscan-cache`.
-pub fn cache_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("RUBSCAN_CACHE_DIR") {
-        return PathBuf::from(d);
-    }
-    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
-        return PathBuf::from(d).join("rubscan");
-    }
-    std::env::var_os("HOME").map_or_else(
-        || PathBuf::from(".rubscan-cache"),
-        |h| PathBuf::from(h).join(".cache/rubscan"),
-    )
-}
-
-/// Loads a ROM from the cache, or builds it with `build` and stores it. The key hashes the
-/// component spec, the rubscan version and the ROM format version, so any change rebuilds.
-fn cached_rom<S: serde::Serialize>(
-    kind: &str,
-    spec: &S,
-    build: impl FnOnce(&S) -> Result<CyclicRom, BuildError>,
-) -> Result<(CyclicRom, bool)> {
-    let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION });
-    let hash = fnv1a64(canonical_json(&key).as_bytes());
-    let path = cache_dir().join(format!("{kind}-{hash:016x}.rom"));
-    if path.exists() {
-        if let Ok(rom) = rom_file::load(&path) {
-            return Ok((rom, true));
-        }
-    }
-    let rom = build(spec)?;
-    // A cache that cannot be written only costs time later.
-    if let Err(e) = rom_file::save(&rom, &path) {
-        eprintln!("warning: ROM cache not written: {e}");
-    }
-    Ok((rom, false))
-}
-
-/// Builds (or loads from the cache) the impeller ROM of a spec.
-pub fn impeller_rom(spec: &ImpellerSpec) -> Result<CyclicRom> {
-    Ok(cached_rom("impeller", spec, build_impeller)?.0)
-}
-
-/// Builds (or loads from the cache) the casing ROM of a spec.
-pub fn casing_rom(spec: &CasingSpec) -> Result<CyclicRom> {
-    Ok(cached_rom("casing", spec, build_casing)?.0)
-}
-
 /// `rubscan model build`: builds (or loads from the cache) the impeller and casing ROMs of a
 /// spec and writes `impeller.rom` and `casing.rom` to `output`; prints timings and sizes.
 pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
@@ -142,8 +91,8 @@ pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
     for (kind, file) in [("impeller", "impeller.rom"), ("casing", "casing.rom")] {
         let start = std::time::Instant::now();
         let (rom, cached) = match kind {
-            "impeller" => cached_rom(kind, &spec.impeller, build_impeller)?,
-            _ => cached_rom(kind, &spec.casing, build_casing)?,
+            "impeller" => model_cache::cached_rom(kind, &spec.impeller, build_impeller)?,
+            _ => model_cache::cached_rom(kind, &spec.casing, build_casing)?,
         };
         let path = output.join(file);
         rom_file::save(&rom, &path)?;
@@ -151,7 +100,7 @@ pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
             "{kind}: {} in {:.2} s ({}), {} sectors, {} contact nodes per sector, {} assembled DOFs -> {}",
             if cached { "loaded from cache" } else { "built" },
             start.elapsed().as_secs_f64(),
-            cache_dir().display(),
+            model_cache::cache_dir().display(),
             rom.n_sectors,
             rom.n_contact(),
             rom.n_dofs(),

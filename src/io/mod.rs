@@ -2,6 +2,7 @@
 
 pub mod calculix;
 pub mod matrix_market;
+pub mod model_cache;
 pub mod parquet;
 pub mod plots;
 pub mod rom_file;

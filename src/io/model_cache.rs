@@ -1,0 +1,59 @@
+//! On-disk cache of built ROMs, keyed by a hash of the component spec, the rubscan version and
+//! the ROM format version: a second `model build` (or sweep) of the same spec loads instantly.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+
+use crate::io::rom_file;
+use crate::model::build::{BuildError, CasingSpec, ImpellerSpec, build_casing, build_impeller};
+use crate::model::rom::{CyclicRom, ROM_FORMAT_VERSION};
+use crate::sweep::planner::{canonical_json, fnv1a64};
+
+/// Directory of the ROM cache: `$RUBSCAN_CACHE_DIR`, else `$XDG_CACHE_HOME/rubscan`, else
+/// `$HOME/.cache/rubscan`, else `.rubscan-cache`.
+pub fn cache_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("RUBSCAN_CACHE_DIR") {
+        return PathBuf::from(d);
+    }
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
+        return PathBuf::from(d).join("rubscan");
+    }
+    std::env::var_os("HOME").map_or_else(
+        || PathBuf::from(".rubscan-cache"),
+        |h| PathBuf::from(h).join(".cache/rubscan"),
+    )
+}
+
+/// Loads a ROM from the cache, or builds it with `build` and stores it. The key hashes the
+/// component spec, the rubscan version and the ROM format version, so any change rebuilds.
+pub fn cached_rom<S: serde::Serialize>(
+    kind: &str,
+    spec: &S,
+    build: impl FnOnce(&S) -> Result<CyclicRom, BuildError>,
+) -> Result<(CyclicRom, bool)> {
+    let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION });
+    let hash = fnv1a64(canonical_json(&key).as_bytes());
+    let path = cache_dir().join(format!("{kind}-{hash:016x}.rom"));
+    if path.exists() {
+        if let Ok(rom) = rom_file::load(&path) {
+            return Ok((rom, true));
+        }
+    }
+    let rom = build(spec)?;
+    // A cache that cannot be written only costs time later.
+    if let Err(e) = rom_file::save(&rom, &path) {
+        eprintln!("warning: ROM cache not written: {e}");
+    }
+    Ok((rom, false))
+}
+
+/// Builds (or loads from the cache) the impeller ROM of a spec.
+pub fn impeller_rom(spec: &ImpellerSpec) -> Result<CyclicRom> {
+    Ok(cached_rom("impeller", spec, build_impeller)?.0)
+}
+
+/// Builds (or loads from the cache) the casing ROM of a spec.
+pub fn casing_rom(spec: &CasingSpec) -> Result<CyclicRom> {
+    Ok(cached_rom("casing", spec, build_casing)?.0)
+}
