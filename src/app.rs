@@ -4,7 +4,26 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use std::f64::consts::PI;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use anyhow::{Context, Result};
+
+use crate::dynamics::{self, SimulationOutput};
+use crate::io::calculix::{CalculixImportSpec, import_calculix};
+use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
+use crate::io::plots::{
+    CampbellData, CasingMode, ImpellerBranch, campbell_diagram, write_sweep_plots,
+};
+use crate::io::timeseries::{self, Column};
+use crate::sweep::simulator::ModelSimulator;
+use crate::sweep::{
+    MergeSummary, RunOptions, RunSummary, default_output_dir, load_records, load_spec, merge,
+    parse_shard, plan, run_sweep,
+};
 
 use crate::dynamics::structure::Structure;
 use crate::io::{model_cache, rom_file};
@@ -108,6 +127,340 @@ pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Installs a Ctrl-C handler that sets `flag` (the sweep runner and the time loop poll it and
+/// stop cleanly, writing nothing half-done). Installing twice is harmless.
+pub fn cancel_on_ctrl_c(flag: Arc<AtomicBool>) {
+    let _ = ctrlc::set_handler(move || {
+        eprintln!(
+            "interrupt: finishing cleanly (jobs in flight are dropped and will re-run on resume)"
+        );
+        flag.store(true, Ordering::SeqCst);
+    });
+}
+
+/// `rubscan simulate`: runs one job of a spec (sweep format; job `index` of its plan, 0 by
+/// default) and writes `timeseries.parquet` and `summary.json` to `output`
+/// (default `results/<name>/simulate-<index>`). Returns the output directory.
+pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result<PathBuf> {
+    let spec = load_spec(spec_path)?;
+    let plan = plan(&spec)?;
+    let job = plan.jobs.get(index).with_context(|| {
+        format!(
+            "{}: the plan has {} jobs, no job {index}",
+            spec_path.display(),
+            plan.jobs.len()
+        )
+    })?;
+    let sim = ModelSimulator::new(&spec)?;
+    let (case, casing, _) = sim.case_for_job(job)?;
+    let cancel = Arc::new(AtomicBool::new(false));
+    cancel_on_ctrl_c(cancel.clone());
+    let out = dynamics::simulate(&case, sim.impeller(), &casing, Some(&cancel))?;
+    let dir = output.map_or_else(
+        || {
+            PathBuf::from("results")
+                .join(&spec.name)
+                .join(format!("simulate-{index}"))
+        },
+        Path::to_path_buf,
+    );
+    timeseries::write(&dir.join("timeseries.parquet"), &timeseries_columns(&out))?;
+    let summary = serde_json::json!({
+        "job_id": job.id,
+        "case": case,
+        "units": "SI: m, N, J, s, rad/s",
+        "time_step_s": out.time_step,
+        "stability_limit_s": out.stability_limit,
+        "steps_per_revolution": out.steps_per_revolution,
+        "n_steps": out.n_steps,
+        "contact_steps": out.contact_steps,
+        "max_blade_radial_m": out.max_blade_radial,
+        "max_residual_penetration_m": out.max_residual_penetration,
+        "loop_seconds": out.loop_seconds,
+    });
+    rom_file::write_atomic(
+        &dir.join("summary.json"),
+        serde_json::to_string_pretty(&summary)?.as_bytes(),
+    )?;
+    eprintln!(
+        "{} steps ({} with contact) in {:.1} s, h = {:.3e} s (limit {:.3e} s, {:.0} steps/rev) -> {}",
+        out.n_steps,
+        out.contact_steps,
+        out.loop_seconds,
+        out.time_step,
+        out.stability_limit,
+        out.steps_per_revolution,
+        dir.display()
+    );
+    Ok(dir)
+}
+
+/// The probes of a simulation as named columns (units in the names).
+pub fn timeseries_columns(out: &SimulationOutput) -> Vec<Column> {
+    let mut cols = vec![Column {
+        name: "time_s".into(),
+        unit: "s",
+        values: out.time.clone(),
+    }];
+    let mut per = |prefix: &str, suffix: &str, unit: &'static str, series: &[Vec<f64>]| {
+        for (i, v) in series.iter().enumerate() {
+            cols.push(Column {
+                name: format!("{prefix}{i}_{suffix}"),
+                unit,
+                values: v.clone(),
+            });
+        }
+    };
+    per("blade", "le_radial_m", "m", &out.blade_le_radial);
+    per("blade", "te_radial_m", "m", &out.blade_te_radial);
+    per("casing_probe", "radial_m", "m", &out.casing_radial);
+    per("blade", "normal_force_n", "N", &out.blade_normal_force);
+    per(
+        "blade",
+        "tangential_force_n",
+        "N",
+        &out.blade_tangential_force,
+    );
+    per(
+        "impeller_nd",
+        "strain_energy_j",
+        "J",
+        &out.impeller_nd_strain_energy,
+    );
+    let scalars: [(&str, &'static str, &Vec<f64>); 6] = [
+        ("min_gap_m", "m", &out.min_gap),
+        ("residual_penetration_m", "m", &out.residual_penetration),
+        (
+            "impeller_kinetic_energy_j",
+            "J",
+            &out.impeller_energy.kinetic,
+        ),
+        ("impeller_strain_energy_j", "J", &out.impeller_energy.strain),
+        ("casing_kinetic_energy_j", "J", &out.casing_energy.kinetic),
+        ("casing_strain_energy_j", "J", &out.casing_energy.strain),
+    ];
+    for (name, unit, values) in scalars {
+        if values.len() == out.time.len() {
+            cols.push(Column {
+                name: name.into(),
+                unit,
+                values: values.clone(),
+            });
+        }
+    }
+    cols
+}
+
+/// `rubscan plan`: the jobs of a sweep with their resolved parameters and the work estimate.
+pub fn plan_text(spec_path: &Path) -> Result<String> {
+    let spec = load_spec(spec_path)?;
+    let plan = plan(&spec)?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:>5}  {:<16}  {:>12}  {:>6}  {:>12}  coating",
+        "index", "id", "Ω [rad/s]", "μ", "clearance [m]"
+    );
+    for j in &plan.jobs {
+        let p = &j.params;
+        let clearance = p.clearance_m.map_or("-".into(), |c| format!("{c:.3e}"));
+        let _ = writeln!(
+            s,
+            "{:>5}  {:<16}  {:>12.2}  {:>6.3}  {:>12}  {}",
+            j.index,
+            j.id,
+            p.speed_rad_s,
+            p.friction,
+            clearance,
+            serde_json::to_string(&p.coating)?
+        );
+    }
+    let _ = writeln!(
+        s,
+        "{} jobs; {} steps per job, {} steps in all",
+        plan.jobs.len(),
+        plan.steps_per_job.map_or("?".into(), |n| n.to_string()),
+        plan.total_steps.map_or("?".into(), |n| n.to_string())
+    );
+    Ok(s)
+}
+
+/// Options of `rubscan run`.
+#[derive(Clone, Debug, Default)]
+pub struct RunArgs {
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    /// `i/n`: run only the jobs whose index ≡ i (mod n).
+    pub shard: Option<String>,
+    /// Output directory (default `results/<name>`).
+    pub output: Option<PathBuf>,
+    /// Re-run failed jobs too.
+    pub retry_failed: bool,
+}
+
+/// `rubscan run`: runs (or resumes) a sweep, writes `results.parquet`, the manifest and plots.
+pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary> {
+    let spec = load_spec(spec_path)?;
+    let mut opts = RunOptions::new(
+        args.output
+            .clone()
+            .unwrap_or_else(|| default_output_dir(Path::new("."), &spec)),
+    );
+    opts.threads = args.threads;
+    opts.shard = args.shard.as_deref().map(parse_shard).transpose()?;
+    opts.progress = std::io::stderr().is_terminal();
+    opts.retry_failed = args.retry_failed;
+    cancel_on_ctrl_c(opts.cancel.clone());
+    let sim = ModelSimulator::new(&spec)?;
+    let summary = run_sweep(&spec, &opts, &sim)?;
+    let records = load_records(&opts.output_dir, plan(&spec)?.jobs.iter());
+    let lobes = spec.scenario.lobes.unwrap_or(2).max(1);
+    let orders: Vec<u32> = (1..=8).map(|i| i * lobes).collect();
+    let plots = write_sweep_plots(&opts.output_dir, &records, &orders)?;
+    eprintln!(
+        "{} jobs: {} ran, {} skipped (already done), {} ok, {} failed{} in {:.1} s -> {} (+{} plots)",
+        summary.in_shard,
+        summary.ran,
+        summary.skipped,
+        summary.ok,
+        summary.failed,
+        if summary.cancelled { ", cancelled" } else { "" },
+        summary.wall_time_s,
+        summary.results_path.display(),
+        plots.len()
+    );
+    Ok(summary)
+}
+
+/// `rubscan campbell`: critical speeds of the linear interaction criterion for a sweep's
+/// models, as a table; draws the absolute-frame Campbell diagram to `output` (PNG or SVG).
+pub fn campbell(spec_path: &Path, output: &Path) -> Result<String> {
+    let spec = load_spec(spec_path)?;
+    let sim = ModelSimulator::new(&spec)?;
+    let imp = sim.impeller();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:>12}  {:>8}  {:>13}  {:>8}",
+        "Ω* [rad/s]", "Ω* [rpm]", "nodal diam. n", "compat."
+    );
+    for c in sim.critical_speeds() {
+        let _ = writeln!(
+            s,
+            "{:>12.1}  {:>8.0}  {:>13}  {:>8.3}",
+            c.speed_rad_s,
+            c.speed_rad_s * 30.0 / PI,
+            c.nodal_diameter,
+            c.compatibility
+        );
+    }
+    let speeds = imp
+        .modal_data
+        .first()
+        .map(|m| m.omega.clone())
+        .unwrap_or_default();
+    let impeller = imp
+        .modal_data
+        .iter()
+        .flat_map(|m| {
+            let n_modes = m.frequencies.first().map_or(0, Vec::len).min(3);
+            (0..n_modes).map(move |p| ImpellerBranch {
+                nodal_diameter: m.nodal_diameter as u32,
+                omega_rad_s: m.frequencies.iter().map(|f| 2.0 * PI * f[p]).collect(),
+            })
+        })
+        .collect();
+    let casing = sim.casing_rom().map_or(vec![], |rom| {
+        rom.modal_data
+            .iter()
+            .flat_map(|m| {
+                m.frequencies[0].iter().take(2).map(move |f| CasingMode {
+                    nodal_diameter: m.nodal_diameter as u32,
+                    omega_rad_s: 2.0 * PI * f,
+                })
+            })
+            .collect()
+    });
+    let data = CampbellData {
+        speeds_rad_s: speeds,
+        casing,
+        impeller,
+        critical_speeds: sim
+            .critical_speeds()
+            .iter()
+            .map(|c| (c.speed_rad_s, c.nodal_diameter))
+            .collect(),
+    };
+    campbell_diagram(&data, output)?;
+    let _ = writeln!(s, "Campbell diagram -> {}", output.display());
+    Ok(s)
+}
+
+/// `rubscan merge`: combines shard outputs into the table a single run gives.
+pub fn merge_shards(shards: &[PathBuf], output: &Path) -> Result<MergeSummary> {
+    let summary = merge(shards, output)?;
+    eprintln!(
+        "{} of {} jobs found -> {}",
+        summary.found,
+        summary.planned,
+        summary.results_path.display()
+    );
+    Ok(summary)
+}
+
+/// `rubscan model import`: imports a CalculiX or Matrix Market model (spec JSON), reduces it
+/// by Craig–Bampton and writes the ROM file.
+pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(spec_path)
+        .with_context(|| format!("reading {}", spec_path.display()))?;
+    let base = spec_path.parent().unwrap_or(Path::new("."));
+    let start = std::time::Instant::now();
+    let rom = match format {
+        ImportFormat::Calculix => {
+            let mut spec: CalculixImportSpec =
+                serde_json::from_str(&text).with_context(|| spec_path.display().to_string())?;
+            for p in [
+                &mut spec.stiffness,
+                &mut spec.mass,
+                &mut spec.dof_map,
+                &mut spec.mesh,
+            ] {
+                *p = base.join(&*p);
+            }
+            import_calculix(&spec)?
+        }
+        ImportFormat::MatrixMarket => {
+            let mut spec: MatrixMarketImportSpec =
+                serde_json::from_str(&text).with_context(|| spec_path.display().to_string())?;
+            for p in [
+                &mut spec.stiffness,
+                &mut spec.mass,
+                &mut spec.dof_map,
+                &mut spec.nodes,
+            ] {
+                *p = base.join(&*p);
+            }
+            import_matrix_market(&spec)?
+        }
+    };
+    rom_file::save(&rom, output)?;
+    eprintln!(
+        "imported and reduced in {:.1} s -> {}",
+        start.elapsed().as_secs_f64(),
+        output.display()
+    );
+    Ok(())
+}
+
+/// Source format of `rubscan model import`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImportFormat {
+    /// CalculiX matrix storage (`.sti`, `.mas`, `.dof`) with nodes from `.inp`/`.msh`.
+    Calculix,
+    /// Matrix Market `.mtx` with a DOF map and a node table.
+    MatrixMarket,
 }
 
 #[cfg(test)]

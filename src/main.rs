@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{Parser, Subcommand, ValueEnum};
+use rubscan::app::{self, ImportFormat, RunArgs};
 
 /// Critical-speed scans of a bladed impeller rubbing inside a flexible casing.
 #[derive(Parser)]
@@ -15,10 +16,60 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Build or inspect reduced-order models.
+    /// Build, import or inspect reduced-order models.
     Model {
         #[command(subcommand)]
         action: ModelAction,
+    },
+    /// Run one job of a spec and write its time series (Parquet) and summary (JSON).
+    Simulate {
+        /// Spec (sweep format, JSON).
+        spec: PathBuf,
+        /// Index of the job in the spec's plan.
+        #[arg(long, default_value_t = 0)]
+        job: usize,
+        /// Output directory (default results/<name>/simulate-<job>).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Expand a sweep into jobs and print them with the work estimate.
+    Plan {
+        /// Sweep spec (JSON).
+        spec: PathBuf,
+    },
+    /// Run or resume a sweep: one simulation per job on a thread pool, one Parquet table.
+    Run {
+        /// Sweep spec (JSON).
+        spec: PathBuf,
+        /// Worker threads (0 = all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Run only shard i of n (jobs with index ≡ i mod n), e.g. 0/4.
+        #[arg(long)]
+        shard: Option<String>,
+        /// Output directory (default results/<name>).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Re-run jobs recorded as failed.
+        #[arg(long)]
+        retry_failed: bool,
+    },
+    /// Merge shard outputs into one table.
+    Merge {
+        /// Shard output directories.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Output directory.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Critical speeds of the linear interaction criterion and the Campbell diagram.
+    Campbell {
+        /// Sweep spec (JSON) naming the models.
+        spec: PathBuf,
+        /// Diagram file (.png or .svg).
+        #[arg(short, long, default_value = "results/campbell.png")]
+        output: PathBuf,
     },
 }
 
@@ -32,6 +83,16 @@ enum ModelAction {
         #[arg(short, long, default_value = "results/models")]
         output: PathBuf,
     },
+    /// Import an FE model (CalculiX matrix storage or Matrix Market) and reduce it.
+    Import {
+        /// Source format.
+        format: Format,
+        /// Import spec (JSON); relative paths are relative to it.
+        spec: PathBuf,
+        /// Output ROM file.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Print sizes, frequencies per nodal diameter and Ω dependence of a ROM file.
     Info {
         /// ROM file.
@@ -39,15 +100,30 @@ enum ModelAction {
     },
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum Format {
+    Calculix,
+    MatrixMarket,
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Model {
-            action: ModelAction::Build { spec, output },
-        } => rubscan::app::model_build(spec.as_deref(), &output),
-        Command::Model {
-            action: ModelAction::Info { file },
-        } => rubscan::app::model_info(&file).map(|text| print!("{text}")),
+    let result = match Cli::parse().command {
+        Command::Model { action: ModelAction::Build { spec, output } } => app::model_build(spec.as_deref(), &output),
+        Command::Model { action: ModelAction::Import { format, spec, output } } => {
+            let format = match format {
+                Format::Calculix => ImportFormat::Calculix,
+                Format::MatrixMarket => ImportFormat::MatrixMarket,
+            };
+            app::model_import(format, &spec, &output)
+        }
+        Command::Model { action: ModelAction::Info { file } } => app::model_info(&file).map(|text| print!("{text}")),
+        Command::Simulate { spec, job, output } => app::simulate(&spec, job, output.as_deref()).map(drop),
+        Command::Plan { spec } => app::plan_text(&spec).map(|text| print!("{text}")),
+        Command::Run { spec, threads, shard, output, retry_failed } => {
+            app::run(&spec, &RunArgs { threads, shard, output, retry_failed }).map(drop)
+        }
+        Command::Merge { shards, output } => app::merge_shards(&shards, &output).map(drop),
+        Command::Campbell { spec, output } => app::campbell(&spec, &output).map(|text| print!("{text}")),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

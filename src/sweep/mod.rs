@@ -11,6 +11,7 @@
 pub mod checkpoint;
 pub mod planner;
 pub mod runner;
+pub mod simulator;
 pub mod spec;
 pub mod synthetic;
 

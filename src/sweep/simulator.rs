@@ -1,0 +1,393 @@
+//! The real [`JobSimulator`]: resolves a sweep's models once, turns each job into a
+//! [`Case`], runs [`simulate`] and aggregates the time series into a [`JobResult`]
+//! (maxima, Fourier peaks over the steady window, strain energy per nodal diameter,
+//! nearest critical speed of the linear interaction criterion).
+
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+use serde_json::Value;
+
+use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
+use crate::analysis::spectra::{PeakOptions, SpectrumAnalyzer};
+use crate::dynamics::{
+    Case, CasingModel, LobeLoad, Numerics, RigidCasing, RigidShape, SimulationOutput, simulate,
+};
+use crate::io::{model_cache, rom_file};
+use crate::model::build::{CasingSpec, ImpellerSpec};
+use crate::model::rom::CyclicRom;
+use crate::sweep::planner::Job;
+use crate::sweep::spec::{CasingSource, ModelSource, SweepSpec};
+use crate::sweep::{CriticalSpeed, FourierPeak, JobResult, JobSimulator, Maxima, Spectrum};
+
+/// Scenario fields beyond `duration_s` and `lobes` (sweep spec `scenario`), all optional.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ScenarioExtras {
+    /// Static inward radial displacement δ (m) of the n-lobe casing load at its peak (flexible casing).
+    pub load_amplitude_m: Option<f64>,
+    /// End of the load ramp t_f (s); the load is released after it. Default: a quarter of the duration.
+    pub load_ramp_s: Option<f64>,
+    /// Casing contact nodes `[sector, node]` whose radial displacement is recorded.
+    pub casing_probes: Vec<[usize; 2]>,
+    /// Fraction of the run, at its end, used as the steady window of the spectra (default 0.5).
+    pub steady_fraction: Option<f64>,
+    /// Circumferential stations of a rigid casing's spline (default 120).
+    pub rigid_stations: Option<usize>,
+}
+
+/// Default tip clearance (m) of a rigid casing when the grid gives none.
+const DEFAULT_RIGID_CLEARANCE: f64 = 0.5e-3;
+
+/// The casing of a sweep, resolved once.
+#[derive(Clone, Debug)]
+enum ResolvedCasing {
+    Flexible(CyclicRom),
+    Rigid { lobes: usize, amplitude: f64 },
+}
+
+/// A [`JobSimulator`] running the flexible-casing contact simulation of [`crate::dynamics`].
+#[derive(Debug)]
+pub struct ModelSimulator {
+    impeller: CyclicRom,
+    casing: ResolvedCasing,
+    /// Tip clearance (m) built into the impeller geometry, when known (built-in models).
+    nominal_clearance: Option<f64>,
+    /// Critical speeds of the linear interaction criterion, computed once.
+    criticals: Vec<CriticalSpeed>,
+}
+
+fn impeller_model(source: &ModelSource) -> Result<(CyclicRom, Option<f64>)> {
+    match source {
+        ModelSource::Builtin(map) => {
+            let spec: ImpellerSpec = serde_json::from_value(Value::Object(map.clone()))
+                .context("models.impeller.builtin")?;
+            let clearance = spec.geometry.tip_clearance;
+            Ok((model_cache::impeller_rom(&spec)?, Some(clearance)))
+        }
+        ModelSource::Rom(path) => Ok((rom_file::load(path)?, None)),
+    }
+}
+
+fn casing_model(source: &CasingSource) -> Result<ResolvedCasing> {
+    Ok(match source {
+        CasingSource::Builtin(map) => {
+            let spec: CasingSpec = serde_json::from_value(Value::Object(map.clone()))
+                .context("models.casing.builtin")?;
+            ResolvedCasing::Flexible(model_cache::casing_rom(&spec)?)
+        }
+        CasingSource::Rom(path) => ResolvedCasing::Flexible(rom_file::load(path)?),
+        CasingSource::Rigid(r) => ResolvedCasing::Rigid {
+            lobes: r.lobes as usize,
+            amplitude: r.amplitude_m,
+        },
+    })
+}
+
+/// Meridian of a rigid casing: the blade-tip contact rows `(r, z)` (leading → trailing edge)
+/// moved by `clearance` (m) along the meridian normal pointing away from the hub.
+pub fn rigid_meridian(tip_rz: &[[f64; 2]], clearance: f64) -> Vec<[f64; 2]> {
+    let n = tip_rz.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (tip_rz[i.saturating_sub(1)], tip_rz[(i + 1).min(n - 1)]);
+            let (dr, dz) = (b[0] - a[0], b[1] - a[1]);
+            let len = dr.hypot(dz);
+            // Tangent (dr, dz) from leading to trailing edge; (dz, −dr) points to the shroud side.
+            let (nr, nz) = if len > 0.0 {
+                (dz / len, -dr / len)
+            } else {
+                (1.0, 0.0)
+            };
+            [tip_rz[i][0] + clearance * nr, tip_rz[i][1] + clearance * nz]
+        })
+        .collect()
+}
+
+/// `(r, z)` of the impeller's contact nodes, one per contact row, in row order.
+fn tip_rows(rom: &CyclicRom) -> Vec<[f64; 2]> {
+    let mut rows: Vec<(usize, [f64; 2])> = rom
+        .contact_nodes
+        .iter()
+        .map(|c| (c.row, [c.position[0].hypot(c.position[1]), c.position[2]]))
+        .collect();
+    rows.sort_by_key(|r| r.0);
+    rows.dedup_by_key(|r| r.0);
+    rows.into_iter().map(|r| r.1).collect()
+}
+
+impl ModelSimulator {
+    /// Resolves (builds, loads or takes from the cache) the models of a sweep and evaluates
+    /// the linear interaction criterion once.
+    pub fn new(spec: &SweepSpec) -> Result<Self> {
+        let (impeller, nominal_clearance) = impeller_model(&spec.models.impeller)?;
+        let casing = casing_model(&spec.models.casing)?;
+        let opts = CriterionOptions::default();
+        let criticals = match &casing {
+            ResolvedCasing::Flexible(c) => interaction::critical_speeds(
+                &InterfaceModes::from_rom(&impeller),
+                &InterfaceModes::from_rom(c),
+                &opts,
+            )
+            .context("linear interaction criterion")?
+            .into_iter()
+            .map(|c| CriticalSpeed {
+                speed_rad_s: c.omega_rad_s,
+                nodal_diameter: c.nodal_diameter as u32,
+                compatibility: c.compatibility.unwrap_or(0.0),
+            })
+            .collect(),
+            ResolvedCasing::Rigid { lobes, .. } => {
+                // A rigid casing has no modes: the critical speeds are the engine-order crossings of
+                // the lobe harmonics, whose shapes are compatible by construction (score 1).
+                interaction::engine_order_crossings(
+                    &impeller.modal_data,
+                    impeller.n_sectors,
+                    *lobes,
+                    12 * lobes,
+                    &opts,
+                )
+                .context("engine-order crossings")?
+                .into_iter()
+                .map(|c| CriticalSpeed {
+                    speed_rad_s: c.omega_rad_s,
+                    nodal_diameter: c.nodal_diameter as u32,
+                    compatibility: 1.0,
+                })
+                .collect()
+            }
+        };
+        Ok(Self {
+            impeller,
+            casing,
+            nominal_clearance,
+            criticals,
+        })
+    }
+
+    /// Critical speeds found by the linear interaction criterion (rad/s, nodal diameter, compatibility).
+    pub fn critical_speeds(&self) -> &[CriticalSpeed] {
+        &self.criticals
+    }
+
+    /// The flexible casing ROM of the sweep (`None` for a rigid casing).
+    pub fn casing_rom(&self) -> Option<&CyclicRom> {
+        match &self.casing {
+            ResolvedCasing::Flexible(rom) => Some(rom),
+            ResolvedCasing::Rigid { .. } => None,
+        }
+    }
+
+    /// The impeller ROM of the sweep.
+    pub fn impeller(&self) -> &CyclicRom {
+        &self.impeller
+    }
+
+    /// Builds the simulation case and casing model of one job.
+    pub fn case_for_job(&self, job: &Job) -> Result<(Case, CasingModel, ScenarioExtras)> {
+        let ctx = &job.context;
+        let extras: ScenarioExtras =
+            serde_json::from_value(Value::Object(ctx.scenario.extra.clone()))
+                .context("scenario")?;
+        let mut numerics = ctx.numerics.extra.clone();
+        if let Some(h) = ctx.numerics.time_step_s {
+            numerics.insert("time_step".into(), Value::from(h));
+        }
+        let numerics: Numerics =
+            serde_json::from_value(Value::Object(numerics)).context("numerics")?;
+        let duration = ctx.scenario.duration_s;
+        let rows = tip_rows(&self.impeller).len();
+        let p = &job.params;
+        let (casing, clearance_offset, load) = match &self.casing {
+            ResolvedCasing::Flexible(rom) => {
+                let offset = match (p.clearance_m, self.nominal_clearance) {
+                    (None, _) => vec![],
+                    (Some(c), Some(c0)) => vec![c0 - c; rows],
+                    (Some(_), None) => bail!(
+                        "grid.clearance_m needs a built-in impeller (a ROM file does not state its clearance)"
+                    ),
+                };
+                let load = match (ctx.scenario.lobes, extras.load_amplitude_m) {
+                    (Some(n), Some(delta)) => Some(LobeLoad {
+                        lobes: n as usize,
+                        static_displacement: delta,
+                        ramp_time: extras.load_ramp_s.unwrap_or(0.25 * duration),
+                    }),
+                    (None, None) => None,
+                    _ => bail!(
+                        "scenario: `lobes` and `load_amplitude_m` go together (the n-lobe casing load)"
+                    ),
+                };
+                (CasingModel::Flexible(rom.clone()), offset, load)
+            }
+            ResolvedCasing::Rigid { lobes, amplitude } => {
+                let clearance = p.clearance_m.unwrap_or(DEFAULT_RIGID_CLEARANCE);
+                let rigid = RigidCasing {
+                    n_sectors: extras.rigid_stations.unwrap_or(120),
+                    meridian: rigid_meridian(&tip_rows(&self.impeller), clearance),
+                    shape: RigidShape::Lobes {
+                        lobes: *lobes,
+                        amplitude: *amplitude,
+                    },
+                };
+                (CasingModel::Rigid(rigid), vec![], None)
+            }
+        };
+        let case = Case {
+            omega: p.speed_rad_s,
+            duration,
+            friction: p.friction,
+            load,
+            clearance_offset,
+            casing_probes: extras.casing_probes.clone(),
+            initial_velocity: Default::default(),
+            numerics,
+        };
+        Ok((case, casing, extras))
+    }
+}
+
+impl JobSimulator for ModelSimulator {
+    fn run(&self, job: &Job, cancel: &AtomicBool) -> Result<JobResult, String> {
+        let (case, casing, extras) = self.case_for_job(job).map_err(|e| format!("{e:#}"))?;
+        let out =
+            simulate(&case, &self.impeller, &casing, Some(cancel)).map_err(|e| e.to_string())?;
+        let window_start = steady_window_start(&case, extras.steady_fraction.unwrap_or(0.5));
+        let mut result = aggregate(&out, case.omega, window_start)?;
+        result.critical_speed = nearest(&self.criticals, case.omega);
+        Ok(result)
+    }
+}
+
+/// Start time (s) of the steady window: after the load is released and within the last
+/// `fraction` of the run.
+fn steady_window_start(case: &Case, fraction: f64) -> f64 {
+    let tail = case.duration * (1.0 - fraction.clamp(0.0, 1.0));
+    case.load.as_ref().map_or(tail, |l| tail.max(l.ramp_time))
+}
+
+fn nearest(table: &[CriticalSpeed], omega: f64) -> Option<CriticalSpeed> {
+    table
+        .iter()
+        .min_by(|a, b| {
+            (a.speed_rad_s - omega)
+                .abs()
+                .total_cmp(&(b.speed_rad_s - omega).abs())
+        })
+        .copied()
+}
+
+fn abs_max<'a>(series: impl IntoIterator<Item = &'a Vec<f64>>) -> f64 {
+    series
+        .into_iter()
+        .flatten()
+        .fold(0.0, |m, v| m.max(v.abs()))
+}
+
+/// Aggregates a simulation into the sweep's per-job row: maxima over the run, Fourier peaks
+/// (Hann window) of blade 0's leading-edge radial displacement over the steady window
+/// `t ≥ window_start`, and the mean strain energy per nodal diameter over that window.
+pub fn aggregate(
+    out: &SimulationOutput,
+    omega: f64,
+    window_start: f64,
+) -> Result<JobResult, String> {
+    let maxima = Maxima {
+        blade_le_radial_m: abs_max(&out.blade_le_radial),
+        blade_te_radial_m: abs_max(&out.blade_te_radial),
+        casing_radial_m: abs_max(&out.casing_radial),
+        contact_normal_force_n: abs_max(&out.blade_normal_force),
+        coating_force_n: 0.0,
+    };
+    let first = out
+        .time
+        .iter()
+        .position(|&t| t >= window_start)
+        .unwrap_or(out.time.len());
+    let n = out.time.len() - first;
+    let dt = if out.time.len() > 1 {
+        out.time[1] - out.time[0]
+    } else {
+        0.0
+    };
+    let (mut fourier_peaks, mut spectrum) = (vec![], None);
+    if let (Some(signal), true) = (out.blade_le_radial.first(), n >= 16 && dt > 0.0) {
+        let signal = &signal[first..];
+        let mut analyzer = SpectrumAnalyzer::new(n).map_err(|e| e.to_string())?;
+        let opts = PeakOptions {
+            max_peaks: 5,
+            ..PeakOptions::default()
+        };
+        fourier_peaks = analyzer
+            .peaks(signal, dt, omega, &opts)
+            .map_err(|e| e.to_string())?
+            .into_iter()
+            .map(|p| FourierPeak {
+                frequency_hz: p.frequency_hz,
+                engine_order: p.engine_order,
+                amplitude_m: p.amplitude,
+            })
+            .collect();
+        let df = analyzer.bin_width(dt);
+        let amplitude = analyzer
+            .amplitude_spectrum(signal, dt, true)
+            .map_err(|e| e.to_string())?
+            .to_vec();
+        spectrum = Some(Spectrum {
+            df_hz: df,
+            amplitude_m: amplitude,
+        });
+    }
+    let strain_energy_per_nd_j = out
+        .impeller_nd_strain_energy
+        .iter()
+        .map(|e| {
+            if e.len() > first {
+                e[first..].iter().sum::<f64>() / (e.len() - first) as f64
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    Ok(JobResult {
+        maxima,
+        wear_profile_m: vec![],
+        fourier_peaks,
+        strain_energy_per_nd_j,
+        residual_penetration_m: out.max_residual_penetration,
+        critical_speed: None,
+        spectrum,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rigid_meridian_offsets_along_the_shroud_side_normal() {
+        // Axial tip (r constant, z increasing): the casing is radially outside.
+        let m = rigid_meridian(&[[0.1, 0.0], [0.1, 0.01], [0.1, 0.02]], 1e-3);
+        for p in &m {
+            assert!((p[0] - 0.101).abs() < 1e-15);
+        }
+        // Radial tip at the outlet of a centrifugal wheel (r increasing at constant z): the
+        // shroud is on the −z side.
+        let m = rigid_meridian(&[[0.10, 0.05], [0.11, 0.05]], 1e-3);
+        assert!((m[1][1] - 0.049).abs() < 1e-15 && (m[1][0] - 0.11).abs() < 1e-15);
+    }
+
+    #[test]
+    fn steady_window_starts_after_the_load() {
+        let mut case: Case =
+            serde_json::from_value(serde_json::json!({"omega": 1.0, "duration": 1.0})).unwrap();
+        assert_eq!(steady_window_start(&case, 0.5), 0.5);
+        case.load = Some(LobeLoad {
+            lobes: 2,
+            static_displacement: 1e-4,
+            ramp_time: 0.8,
+        });
+        assert_eq!(steady_window_start(&case, 0.5), 0.8);
+    }
+}
