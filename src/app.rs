@@ -356,31 +356,30 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String> {
             c.compatibility
         );
     }
-    let speeds = imp
-        .modal_data
-        .first()
-        .map(|m| m.omega.clone())
-        .unwrap_or_default();
-    let impeller = imp
-        .modal_data
+    // A readable diagram: the nodal diameters of the first critical speeds, first casing mode
+    // and first two impeller branches of each.
+    let mut diameters: Vec<u32> = sim.critical_speeds().iter().map(|c| c.nodal_diameter).collect();
+    diameters.sort_unstable();
+    diameters.dedup();
+    diameters.truncate(6);
+    let speeds = imp.modal_data.first().map(|m| m.omega.clone()).unwrap_or_default();
+    let n_b = imp.n_sectors;
+    let impeller = diameters
         .iter()
-        .flat_map(|m| {
-            let n_modes = m.frequencies.first().map_or(0, Vec::len).min(3);
-            (0..n_modes).map(move |p| ImpellerBranch {
-                nodal_diameter: m.nodal_diameter as u32,
-                omega_rad_s: m.frequencies.iter().map(|f| 2.0 * PI * f[p]).collect(),
+        .flat_map(|&n| {
+            let k = crate::analysis::interaction::aliased_nodal_diameter(n as usize, n_b);
+            let md = &imp.modal_data[k];
+            (0..md.frequencies.first().map_or(0, Vec::len).min(2)).map(move |p| ImpellerBranch {
+                nodal_diameter: n,
+                omega_rad_s: md.frequencies.iter().map(|f| 2.0 * PI * f[p]).collect(),
             })
         })
         .collect();
     let casing = sim.casing_rom().map_or(vec![], |rom| {
-        rom.modal_data
+        diameters
             .iter()
-            .flat_map(|m| {
-                m.frequencies[0].iter().take(2).map(move |f| CasingMode {
-                    nodal_diameter: m.nodal_diameter as u32,
-                    omega_rad_s: 2.0 * PI * f,
-                })
-            })
+            .filter_map(|&n| rom.modal_data.get(n as usize))
+            .map(|m| CasingMode { nodal_diameter: m.nodal_diameter as u32, omega_rad_s: 2.0 * PI * m.frequencies[0][0] })
             .collect()
     });
     let data = CampbellData {

@@ -72,8 +72,9 @@ impl Default for ImpellerSpec {
         Self {
             geometry: ImpellerGeometry::default(),
             modes_per_diameter: 10,
-            // 0 to 6000 rad/s (57,000 rpm) brackets the speed range of a small turboshaft compressor.
-            omega_grid_rad_s: (0..=12).map(|i| 500.0 * i as f64).collect(),
+            // 0 to 7000 rad/s (67,000 rpm) brackets the speed range of a small turboshaft
+            // compressor and its first casing/impeller coincidences.
+            omega_grid_rad_s: (0..=14).map(|i| 500.0 * i as f64).collect(),
             damping: Damping::default(),
         }
     }
