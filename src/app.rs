@@ -358,11 +358,19 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String> {
     }
     // A readable diagram: the nodal diameters of the first critical speeds, first casing mode
     // and first two impeller branches of each.
-    let mut diameters: Vec<u32> = sim.critical_speeds().iter().map(|c| c.nodal_diameter).collect();
+    let mut diameters: Vec<u32> = sim
+        .critical_speeds()
+        .iter()
+        .map(|c| c.nodal_diameter)
+        .collect();
     diameters.sort_unstable();
     diameters.dedup();
     diameters.truncate(6);
-    let speeds = imp.modal_data.first().map(|m| m.omega.clone()).unwrap_or_default();
+    let speeds = imp
+        .modal_data
+        .first()
+        .map(|m| m.omega.clone())
+        .unwrap_or_default();
     let n_b = imp.n_sectors;
     let impeller = diameters
         .iter()
@@ -379,7 +387,10 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String> {
         diameters
             .iter()
             .filter_map(|&n| rom.modal_data.get(n as usize))
-            .map(|m| CasingMode { nodal_diameter: m.nodal_diameter as u32, omega_rad_s: 2.0 * PI * m.frequencies[0][0] })
+            .map(|m| CasingMode {
+                nodal_diameter: m.nodal_diameter as u32,
+                omega_rad_s: 2.0 * PI * m.frequencies[0][0],
+            })
             .collect()
     });
     let data = CampbellData {

@@ -108,22 +108,50 @@ enum Format {
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
-        Command::Model { action: ModelAction::Build { spec, output } } => app::model_build(spec.as_deref(), &output),
-        Command::Model { action: ModelAction::Import { format, spec, output } } => {
+        Command::Model {
+            action: ModelAction::Build { spec, output },
+        } => app::model_build(spec.as_deref(), &output),
+        Command::Model {
+            action:
+                ModelAction::Import {
+                    format,
+                    spec,
+                    output,
+                },
+        } => {
             let format = match format {
                 Format::Calculix => ImportFormat::Calculix,
                 Format::MatrixMarket => ImportFormat::MatrixMarket,
             };
             app::model_import(format, &spec, &output)
         }
-        Command::Model { action: ModelAction::Info { file } } => app::model_info(&file).map(|text| print!("{text}")),
-        Command::Simulate { spec, job, output } => app::simulate(&spec, job, output.as_deref()).map(drop),
-        Command::Plan { spec } => app::plan_text(&spec).map(|text| print!("{text}")),
-        Command::Run { spec, threads, shard, output, retry_failed } => {
-            app::run(&spec, &RunArgs { threads, shard, output, retry_failed }).map(drop)
+        Command::Model {
+            action: ModelAction::Info { file },
+        } => app::model_info(&file).map(|text| print!("{text}")),
+        Command::Simulate { spec, job, output } => {
+            app::simulate(&spec, job, output.as_deref()).map(drop)
         }
+        Command::Plan { spec } => app::plan_text(&spec).map(|text| print!("{text}")),
+        Command::Run {
+            spec,
+            threads,
+            shard,
+            output,
+            retry_failed,
+        } => app::run(
+            &spec,
+            &RunArgs {
+                threads,
+                shard,
+                output,
+                retry_failed,
+            },
+        )
+        .map(drop),
         Command::Merge { shards, output } => app::merge_shards(&shards, &output).map(drop),
-        Command::Campbell { spec, output } => app::campbell(&spec, &output).map(|text| print!("{text}")),
+        Command::Campbell { spec, output } => {
+            app::campbell(&spec, &output).map(|text| print!("{text}"))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
