@@ -75,4 +75,8 @@ pub struct CoatingOutput {
     pub max_wear_final: f64,
     /// Number of steps in which at least one blade node loaded the coating.
     pub coating_steps: usize,
+    /// Time steps a blade tip spends over one element, `2π / (η |Ω| h)`. Below about 1 the
+    /// tips skip elements (they are loaded only at the sampled positions) and the wear profile
+    /// becomes spiky: refine h or coarsen η.
+    pub steps_per_element: f64,
 }

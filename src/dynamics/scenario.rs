@@ -233,3 +233,35 @@ impl Case {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_tip_area_is_thickness_times_tributary_length() {
+        let cc = CoatingCase::new(CoatingMaterial::nominal());
+        // Tip nodes on a cone, meridional segments 3-4-5 → lengths 5 and 10 (m, any frame angle:
+        // only (r, z) matters).
+        let p = [[0.0, 1.0, 0.0], [4.0, 0.0, 4.0], [10.0, 0.0, 12.0]];
+        let a = cc.resolve_tip_area(&p).unwrap();
+        let t = cc.blade_thickness;
+        let expect = [2.5 * t, 7.5 * t, 5.0 * t];
+        for (x, y) in a.iter().zip(expect) {
+            assert!((x - y).abs() <= 1e-12 * y, "{a:?}");
+        }
+        // Explicit areas are used as given; wrong counts and single rows are errors.
+        let given = CoatingCase {
+            tip_area: vec![1e-6, 2e-6, 3e-6],
+            ..cc.clone()
+        };
+        assert_eq!(given.resolve_tip_area(&p).unwrap(), vec![1e-6, 2e-6, 3e-6]);
+        assert!(given.resolve_tip_area(&p[..2]).is_err());
+        assert!(
+            cc.resolve_tip_area(&p[..1])
+                .unwrap_err()
+                .contains("tip_area")
+        );
+        assert!(cc.resolve_tip_area(&[p[0], p[0]]).is_err());
+    }
+}

@@ -371,7 +371,8 @@ pub fn simulate(
     };
     let mut coat = match &case.coating {
         Some(cc) => {
-            let cs = CoatingStage::new(cc, impeller, &rows_i, n_rows, mu, ncs, mc, n_samples)?;
+            let mut cs = CoatingStage::new(cc, impeller, &rows_i, n_rows, mu, ncs, mc, n_samples)?;
+            cs.out.steps_per_element = steps_per_rev / cc.eta as f64;
             cs.check_stability(ki.as_mut(), kc.as_deref_mut(), &er_i, &er_c)?;
             Some(cs)
         }
