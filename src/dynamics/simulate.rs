@@ -954,12 +954,10 @@ impl CoatingStage {
                 self.fi[s * self.nbi + 3 * j + d] += floc[d];
             }
             if fr.flexible {
-                add_casing_force(
+                add_casing_force_global(
                     fr.spline,
                     &p.param,
                     &(-fdir),
-                    fr.rot_c,
-                    fr.mc,
                     &mut self.wu,
                     &mut self.wv,
                     &mut self.fc,
@@ -968,6 +966,9 @@ impl CoatingStage {
             self.blade_force[s] += f;
         }
         if any {
+            if fr.flexible {
+                rotate_to_sector_frames(fr.rot_c, fr.mc, &mut self.fc);
+            }
             self.out.coating_steps += 1;
             let peak = self.blade_force.iter().fold(0.0f64, |m, &x| m.max(x));
             self.out.peak_force = self.out.peak_force.max(peak);
@@ -1030,15 +1031,14 @@ impl CoatingStage {
     }
 }
 
-/// Adds the casing boundary forces (sector-local frames) of a global force `f` (N) applied at
-/// the spline point `param`: distributed to the data points through `B̂ c` (eq. 18).
-#[allow(clippy::too_many_arguments)]
-fn add_casing_force(
+/// Adds to `fc` the casing boundary forces of a global force `f` (N) applied at the spline
+/// point `param`, distributed to the data points through `B̂ c` (eq. 18). The forces are left in
+/// the *global* frame (one rotation per node at the end, [`rotate_to_sector_frames`], instead of
+/// one per contact).
+fn add_casing_force_global(
     spline: &CasingSpline,
     param: &SurfaceParam,
     f: &Vector3<f64>,
-    rot_c: &[Matrix3<f64>],
-    mc: usize,
     wu: &mut [f64],
     wv: &mut [f64],
     fc: &mut [f64],
@@ -1046,20 +1046,31 @@ fn add_casing_force(
     spline
         .node_weight_factors(param, wu, wv)
         .map_err(|e| SimError::Spline(e.to_string()))?;
-    let nbc = 3 * mc;
-    for (i, r) in rot_c.iter().enumerate() {
-        if wu[i] == 0.0 {
+    let nbc = 3 * wv.len();
+    for (i, &a) in wu.iter().enumerate() {
+        if a == 0.0 {
             continue;
         }
-        let fl = r.transpose() * f;
-        for j in 0..mc {
-            let wgt = wu[i] * wv[j];
+        let fa = f * a;
+        for (j, &b) in wv.iter().enumerate() {
             for d in 0..3 {
-                fc[i * nbc + 3 * j + d] += wgt * fl[d];
+                fc[i * nbc + 3 * j + d] += b * fa[d];
             }
         }
     }
     Ok(())
+}
+
+/// Rotates global-frame casing boundary forces (sector-major) into each sector's local frame.
+fn rotate_to_sector_frames(rot_c: &[Matrix3<f64>], mc: usize, fc: &mut [f64]) {
+    let nbc = 3 * mc;
+    for (i, r) in rot_c.iter().enumerate() {
+        for j in 0..mc {
+            let k = i * nbc + 3 * j;
+            let v = r.transpose() * Vector3::new(fc[k], fc[k + 1], fc[k + 2]);
+            fc[k..k + 3].copy_from_slice(v.as_slice());
+        }
+    }
 }
 
 impl CoatingStage {
@@ -1120,6 +1131,36 @@ mod tests {
     use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
     use crate::model::rom::{Component, ContactNode, Damping, HarmonicBlock, HermitianMatrix};
     use nalgebra::DMatrix;
+
+    /// The casing share of a contact force is a partition of `f` over the data points: rotated
+    /// back to the global frame the node forces sum to `f` (the spline weights sum to 1).
+    #[test]
+    fn casing_force_distribution_sums_to_the_contact_force() {
+        let (n, m) = (8, 3);
+        let sp = CasingSpline::new(n, m).unwrap();
+        let rot: Vec<Matrix3<f64>> = (0..n)
+            .map(|i| rot_z(i as f64 * 2.0 * PI / n as f64))
+            .collect();
+        let (mut wu, mut wv) = (vec![0.0; n], vec![0.0; m]);
+        let mut fc = vec![0.0; n * 3 * m];
+        let f = Vector3::new(1.0, -2.0, 3.0);
+        let param = SurfaceParam {
+            i: 2,
+            j: 1,
+            u: 0.3,
+            v: 0.6,
+        };
+        add_casing_force_global(&sp, &param, &f, &mut wu, &mut wv, &mut fc).unwrap();
+        rotate_to_sector_frames(&rot, m, &mut fc);
+        let mut total = Vector3::zeros();
+        for (i, r) in rot.iter().enumerate() {
+            for j in 0..m {
+                let k = i * 3 * m + 3 * j;
+                total += r * Vector3::new(fc[k], fc[k + 1], fc[k + 2]);
+            }
+        }
+        assert!((total - f).norm() <= 1e-12 * f.norm(), "{total:?}");
+    }
 
     fn small_pair(nb: usize) -> (CyclicRom, CyclicRom) {
         let imp = synthetic_rom(&SyntheticSpec::small(Component::Impeller, nb, 2, 2));
