@@ -255,6 +255,11 @@ impl CoatingLayer {
         self.n_rows
     }
 
+    /// Blade-tip area attributed to each row (m²).
+    pub fn tip_area(&self) -> &[f64] {
+        &self.tip_area
+    }
+
     /// Index of the element containing the circumferential coordinate `theta` (rad, any
     /// real value; wrapped to `[0, 2π)`): `floor(θ η / 2π)`.
     pub fn element_index(&self, theta: f64) -> Result<usize, AbradableError> {

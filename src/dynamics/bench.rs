@@ -59,6 +59,7 @@ pub fn bench_time_step(
             decimation: 1,
             ..Default::default()
         },
+        coating: None,
     };
     let out = simulate(&case, impeller, &casing, None)?;
     let nodes = (impeller.n_sectors * impeller.n_contact()) as f64;

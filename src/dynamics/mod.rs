@@ -26,5 +26,7 @@ pub mod synthetic;
 
 pub use numerics::{KernelChoice, Numerics};
 pub use probes::SimulationOutput;
-pub use scenario::{Case, CasingModel, InitialVelocity, LobeLoad, RigidCasing, RigidShape};
+pub use scenario::{
+    Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad, RigidCasing, RigidShape,
+};
 pub use simulate::{SimError, simulate};

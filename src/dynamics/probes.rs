@@ -48,4 +48,35 @@ pub struct SimulationOutput {
     pub max_blade_radial: f64,
     /// Wall-clock time of the stepping loop alone (s), setup excluded.
     pub loop_seconds: f64,
+    /// Abradable coating probes (`None` without a coating).
+    pub coating: Option<CoatingOutput>,
+}
+
+/// Probes of the abradable coating (paper §4, Figs. 12–13). Rows are the impeller contact rows
+/// (leading edge first); element `i` of a row is centred at the fixed-frame angle `2π (i + ½)/η`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CoatingOutput {
+    /// Number of elements per row η.
+    pub eta: usize,
+    /// Initial coating thickness e_abr (m).
+    pub thickness: f64,
+    /// Final wear profile per row (m, removed depth `ε_p e_abr ∈ [0, e_abr]`), `[row][element]`.
+    pub final_wear: Vec<Vec<f64>>,
+    /// Largest wear of each row (m) at each sample, `[row][sample]`.
+    pub max_wear: Vec<Vec<f64>>,
+    /// Per blade, sum over its tip nodes of the coating force magnitude (N, along the casing
+    /// normal) applied at the sample step, `[blade][sample]`.
+    pub blade_force: Vec<Vec<f64>>,
+    /// Number of fully removed elements (wear = e_abr) per row at the end of the run.
+    pub removed_elements: Vec<usize>,
+    /// Largest per-blade coating force (N) over every step of the run (not only samples).
+    pub peak_force: f64,
+    /// Largest wear over the whole coating at the end of the run (m).
+    pub max_wear_final: f64,
+    /// Number of steps in which at least one blade node loaded the coating.
+    pub coating_steps: usize,
+    /// Time steps a blade tip spends over one element, `2π / (η |Ω| h)`. Below about 1 the
+    /// tips skip elements (they are loaded only at the sampled positions) and the wear profile
+    /// becomes spiky: refine h or coarsen η.
+    pub steps_per_element: f64,
 }

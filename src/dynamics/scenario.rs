@@ -1,6 +1,7 @@
 //! The case definition: rotation speed, duration, friction, casing load (case study 1 of the
 //! paper), clearance offsets, probes and numerics; and the casing model (flexible or rigid).
 
+use crate::dynamics::abradable::{CoatingLayer, CoatingMaterial};
 use crate::dynamics::numerics::Numerics;
 use crate::model::rom::CyclicRom;
 use serde::{Deserialize, Serialize};
@@ -123,6 +124,104 @@ pub struct Case {
     /// Numerical parameters.
     #[serde(default)]
     pub numerics: Numerics,
+    /// Abradable coating on the casing contact surface (paper §4, Fig. 11); `None` = bare casing.
+    #[serde(default)]
+    pub coating: Option<CoatingCase>,
+}
+
+fn default_eta() -> usize {
+    CoatingLayer::DEFAULT_ETA
+}
+
+fn default_blade_thickness() -> f64 {
+    2.5e-3
+}
+
+/// The abradable coating of a case (paper §4).
+///
+/// Geometry: the coating of thickness `material.thickness` = e_abr lies on the casing contact
+/// surface, so a blade-tip node touches the *unworn* coating when its gap to the casing is
+/// e_abr. The casing models' clearances are to the casing itself: to keep a nominal clearance to
+/// the coating surface, shift the tips inward with `Case::clearance_offset = −e_abr` (per row).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoatingCase {
+    /// Coating material in absolute values (E, K, σ_Y, e_abr); scale factors such as the
+    /// paper's E/10 … 10E (§5.2) are resolved by the caller ([`CoatingMaterial::scaled`]).
+    pub material: CoatingMaterial,
+    /// Elements per circumferential row η (default 6000, paper §4.2.1).
+    #[serde(default = "default_eta")]
+    pub eta: usize,
+    /// Blade-tip area attributed to each impeller contact row (m², one entry per row, leading
+    /// edge first). Empty (default) = `blade_thickness` × the tip length attributed to the row's
+    /// node: half the distance to each meridional neighbour (r, z) of the reference geometry.
+    #[serde(default)]
+    pub tip_area: Vec<f64>,
+    /// Blade thickness at the tip (m) for the default `tip_area` (default 2.5 mm, the built-in
+    /// impeller's blade thickness).
+    #[serde(default = "default_blade_thickness")]
+    pub blade_thickness: f64,
+}
+
+impl CoatingCase {
+    /// A coating of `material` with the defaults (η = 6000, tip areas from a 2.5 mm blade).
+    pub fn new(material: CoatingMaterial) -> Self {
+        Self {
+            material,
+            eta: default_eta(),
+            tip_area: vec![],
+            blade_thickness: default_blade_thickness(),
+        }
+    }
+
+    /// Tip area per row (m²): `tip_area` if given, else `blade_thickness` × tributary tip length
+    /// of the row's node. `row_positions[r]` is the reference position (m) of the tip node of row
+    /// `r` (sector-0 frame). Errors name the parameter.
+    pub fn resolve_tip_area(&self, row_positions: &[[f64; 3]]) -> Result<Vec<f64>, String> {
+        let rows = row_positions.len();
+        if !self.tip_area.is_empty() {
+            if self.tip_area.len() != rows {
+                return Err(format!(
+                    "coating.tip_area has {} entries, the impeller has {rows} contact rows",
+                    self.tip_area.len()
+                ));
+            }
+            return Ok(self.tip_area.clone());
+        }
+        if !(self.blade_thickness.is_finite() && self.blade_thickness > 0.0) {
+            return Err(format!(
+                "coating.blade_thickness = {} m must be finite and > 0",
+                self.blade_thickness
+            ));
+        }
+        if rows < 2 {
+            return Err(
+                "coating.tip_area must be given when the impeller has a single contact row".into(),
+            );
+        }
+        let rz = |p: &[f64; 3]| [(p[0] * p[0] + p[1] * p[1]).sqrt(), p[2]];
+        let seg: Vec<f64> = row_positions
+            .windows(2)
+            .map(|w| {
+                let (a, b) = (rz(&w[0]), rz(&w[1]));
+                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+            })
+            .collect();
+        (0..rows)
+            .map(|r| {
+                let left = if r > 0 { seg[r - 1] } else { 0.0 };
+                let right = seg.get(r).copied().unwrap_or(0.0);
+                let a = 0.5 * (left + right) * self.blade_thickness;
+                if a > 0.0 && a.is_finite() {
+                    Ok(a)
+                } else {
+                    Err(format!(
+                        "coating: default tip area of row {r} is {a} m² (coincident tip nodes); give coating.tip_area"
+                    ))
+                }
+            })
+            .collect()
+    }
 }
 
 impl Case {
@@ -132,5 +231,37 @@ impl Case {
             Some(l) if t <= l.ramp_time && l.ramp_time > 0.0 => t / l.ramp_time,
             _ => 0.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_tip_area_is_thickness_times_tributary_length() {
+        let cc = CoatingCase::new(CoatingMaterial::nominal());
+        // Tip nodes on a cone, meridional segments 3-4-5 → lengths 5 and 10 (m, any frame angle:
+        // only (r, z) matters).
+        let p = [[0.0, 1.0, 0.0], [4.0, 0.0, 4.0], [10.0, 0.0, 12.0]];
+        let a = cc.resolve_tip_area(&p).unwrap();
+        let t = cc.blade_thickness;
+        let expect = [2.5 * t, 7.5 * t, 5.0 * t];
+        for (x, y) in a.iter().zip(expect) {
+            assert!((x - y).abs() <= 1e-12 * y, "{a:?}");
+        }
+        // Explicit areas are used as given; wrong counts and single rows are errors.
+        let given = CoatingCase {
+            tip_area: vec![1e-6, 2e-6, 3e-6],
+            ..cc.clone()
+        };
+        assert_eq!(given.resolve_tip_area(&p).unwrap(), vec![1e-6, 2e-6, 3e-6]);
+        assert!(given.resolve_tip_area(&p[..2]).is_err());
+        assert!(
+            cc.resolve_tip_area(&p[..1])
+                .unwrap_err()
+                .contains("tip_area")
+        );
+        assert!(cc.resolve_tip_area(&[p[0], p[0]]).is_err());
     }
 }

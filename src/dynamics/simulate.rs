@@ -3,13 +3,14 @@
 //! negative solve the contact problem and correct both structures.
 
 use crate::contact::{CasingSpline, Projection, SurfaceParam, friction_direction, project_nodes};
+use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve, rot_z};
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
 use crate::dynamics::numerics::KernelChoice;
-use crate::dynamics::probes::SimulationOutput;
-use crate::dynamics::scenario::{Case, CasingModel};
+use crate::dynamics::probes::{CoatingOutput, SimulationOutput};
+use crate::dynamics::scenario::{Case, CasingModel, CoatingCase};
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::model::rom::CyclicRom;
 use faer::linalg::matmul::matmul;
@@ -44,6 +45,8 @@ pub enum SimError {
     Diverged { time: f64, reason: String },
     #[error("simulation cancelled at t = {time:.6e} s")]
     Cancelled { time: f64 },
+    #[error("abradable coating: {0}")]
+    Coating(#[from] AbradableError),
 }
 
 /// Radial unit vector of a reference position (m) in its own frame.
@@ -366,6 +369,15 @@ pub fn simulate(
         n_steps,
         ..Default::default()
     };
+    let mut coat = match &case.coating {
+        Some(cc) => {
+            let mut cs = CoatingStage::new(cc, impeller, &rows_i, n_rows, mu, ncs, mc, n_samples)?;
+            cs.out.steps_per_element = steps_per_rev / cc.eta as f64;
+            cs.check_stability(ki.as_mut(), kc.as_deref_mut(), &er_i, &er_c)?;
+            Some(cs)
+        }
+        None => None,
+    };
     let mut window_residual = 0.0f64;
     let radius_scale = rest_nodes.iter().map(|p| p.xy().norm()).fold(0.0, f64::max);
 
@@ -400,6 +412,40 @@ pub fn simulate(
                 reason: e.to_string(),
             }
         })?;
+        // 3b. Abradable coating (paper Fig. 11): known coating forces first, then re-projection so
+        // that the Lagrange problem below sees them in its predicted gaps.
+        if let Some(cs) = coat.as_mut() {
+            let fr = StepFrames {
+                spline: &spline,
+                q: &q,
+                q_prev: &q_prev,
+                flexible: kc.is_some(),
+                r_om: &r_om,
+                rot_i: &rot_i,
+                rot_c: &rot_c,
+                nci,
+                mc,
+            };
+            let any = cs.apply(&fr, &proj, &gam, &gam_prev)?;
+            if any {
+                ki.correct(&cs.fi);
+                if let Some(k) = kc.as_mut() {
+                    k.correct(&cs.fc);
+                    fill_casing_nodes(k.boundary(), &rot_c, &y_c, mc, &mut pnodes);
+                    spline
+                        .control_points(&pnodes, &mut q)
+                        .map_err(|e| SimError::Spline(e.to_string()))?;
+                }
+                fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
+                project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj).map_err(|e| {
+                    SimError::Projection {
+                        time: t1,
+                        reason: e.to_string(),
+                    }
+                })?;
+                cs.flag_penetrations(nci, &proj)?;
+            }
+        }
         let mut min_gap = f64::INFINITY;
         cands.clear();
         for (node, p) in proj.iter().enumerate() {
@@ -592,6 +638,9 @@ pub fn simulate(
         if let Some(k) = kc.as_mut() {
             k.advance();
         }
+        if let Some(cs) = coat.as_mut() {
+            cs.commit()?;
+        }
         if step % 64 == 0 && !(ki.is_finite() && kc.as_ref().is_none_or(|k| k.is_finite())) {
             return Err(SimError::Diverged {
                 time: t1,
@@ -630,6 +679,9 @@ pub fn simulate(
             out.residual_penetration.push(window_residual.max(0.0));
             out.max_residual_penetration = out.max_residual_penetration.max(window_residual);
             window_residual = 0.0;
+            if let Some(cs) = coat.as_mut() {
+                cs.sample();
+            }
             let e = ki.energies();
             out.impeller_energy.kinetic.push(e.kinetic);
             out.impeller_energy.strain.push(e.strain);
@@ -641,6 +693,7 @@ pub fn simulate(
     }
     out.max_residual_penetration = out.max_residual_penetration.max(window_residual).max(0.0);
     out.loop_seconds = clock.elapsed().as_secs_f64();
+    out.coating = coat.map(CoatingStage::finish).transpose()?;
     Ok(out)
 }
 
@@ -736,6 +789,340 @@ fn dense_w(
     }
 }
 
+/// Frames and spline state of the current step, as seen by the coating stage.
+struct StepFrames<'a> {
+    spline: &'a CasingSpline,
+    q: &'a [Vector3<f64>],
+    q_prev: &'a [Vector3<f64>],
+    /// Whether the casing is flexible (casing forces are then assembled).
+    flexible: bool,
+    r_om: &'a Matrix3<f64>,
+    rot_i: &'a [Matrix3<f64>],
+    rot_c: &'a [Matrix3<f64>],
+    nci: usize,
+    mc: usize,
+}
+
+/// The abradable coating in the time loop (paper §4.1, Fig. 11).
+///
+/// Order within a step (after the prediction and the projection giving d*):
+/// 1. [`CoatingStage::apply`]: a node with `d* ≤ 0` reached the casing: the element under it is
+///    marked for full removal and the node is quarantined (no coating force this step; the
+///    Lagrange multipliers act). For every other node the gap to the worn coating surface is
+///    `d_abr = d* − e_abr (1 − ε_p(θ))` (θ = fixed-frame angle of its closest point, row = its
+///    contact row); if `d_abr < 0` the element law gives the force `F ≥ 0` at the incursion
+///    `δ = e_abr − d*`, applied like a Lagrange force: `F (n + μ t)` on the blade node
+///    (t of eq. 15) and `−F (n + μ t)` on the casing at the closest point through `B̂ c`.
+/// 2. The caller corrects both structures with these known forces (`u += A⁻¹ f_abr`),
+///    re-projects the blade nodes and only then builds the Lagrange problem, so the multipliers
+///    see the coating forces in their predicted gaps (corrected gap `d* + G A⁻¹ f_abr + W λ`).
+///    A non-quarantined node pushed through the casing by that correction is flagged for
+///    removal too ([`CoatingStage::flag_penetrations`]).
+/// 3. [`CoatingStage::commit`] at the end of the step commits the trial element states and the
+///    removals (plastic strain never decreases, so the order does not matter).
+struct CoatingStage {
+    layer: CoatingLayer,
+    /// Impeller contact node index j → coating row.
+    row_of: Vec<usize>,
+    mu: f64,
+    nbi: usize,
+    pending: Vec<ElementUpdate>,
+    removals: Vec<(usize, usize)>,
+    /// Coating force per blade of the current step (N).
+    blade_force: Vec<f64>,
+    /// Boundary forces of the current step (sector-major), impeller and casing.
+    fi: Vec<f64>,
+    fc: Vec<f64>,
+    wu: Vec<f64>,
+    wv: Vec<f64>,
+    max_wear_row: Vec<f64>,
+    removed_row: Vec<usize>,
+    out: CoatingOutput,
+}
+
+impl CoatingStage {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        cc: &CoatingCase,
+        impeller: &CyclicRom,
+        rows_i: &[usize],
+        n_rows: usize,
+        mu: f64,
+        ncs: usize,
+        mc: usize,
+        n_samples: usize,
+    ) -> Result<Self, SimError> {
+        let bad = |m: String| SimError::InvalidCase(m);
+        let mut row_pos = vec![None; n_rows];
+        for (c, &r) in impeller.contact_nodes.iter().zip(rows_i) {
+            row_pos[r].get_or_insert(c.position);
+        }
+        let row_pos: Vec<[f64; 3]> = row_pos
+            .into_iter()
+            .enumerate()
+            .map(|(r, p)| p.ok_or_else(|| bad(format!("impeller contact row {r} has no node"))))
+            .collect::<Result<_, _>>()?;
+        let area = cc.resolve_tip_area(&row_pos).map_err(bad)?;
+        let layer = CoatingLayer::new(cc.material, cc.eta, area)?;
+        let nbl = impeller.n_sectors;
+        let nbi = 3 * impeller.n_contact();
+        let nn = nbl * impeller.n_contact();
+        Ok(Self {
+            layer,
+            row_of: rows_i.to_vec(),
+            mu,
+            nbi,
+            pending: Vec::with_capacity(nn),
+            removals: Vec::with_capacity(2 * nn),
+            blade_force: vec![0.0; nbl],
+            fi: vec![0.0; nbl * nbi],
+            fc: vec![0.0; ncs * 3 * mc],
+            wu: vec![0.0; ncs],
+            wv: vec![0.0; mc],
+            max_wear_row: vec![0.0; n_rows],
+            removed_row: vec![0; n_rows],
+            out: CoatingOutput {
+                eta: cc.eta,
+                thickness: cc.material.thickness,
+                max_wear: vec![Vec::with_capacity(n_samples); n_rows],
+                blade_force: vec![Vec::with_capacity(n_samples); nbl],
+                ..Default::default()
+            },
+        })
+    }
+
+    /// Elastic stiffness `E A_r / e_abr` (N/m) of the elements of row `r`.
+    fn elastic_stiffness(&self, row: usize) -> f64 {
+        let m = self.layer.material();
+        m.young * self.layer.tip_area()[row] / m.thickness
+    }
+
+    /// Step 1 of the stage (see the type doc): trial forces of every node from the predicted
+    /// projections; fills `fi`, `fc`, `blade_force`. Returns whether any force is non-zero.
+    fn apply(
+        &mut self,
+        fr: &StepFrames,
+        proj: &[Projection],
+        gam: &[Vector3<f64>],
+        gam_prev: &[Vector3<f64>],
+    ) -> Result<bool, SimError> {
+        self.pending.clear();
+        self.removals.clear();
+        self.blade_force.iter_mut().for_each(|x| *x = 0.0);
+        let e_abr = self.layer.material().thickness;
+        let mut any = false;
+        for (node, p) in proj.iter().enumerate() {
+            let (s, j) = (node / fr.nci, node % fr.nci);
+            let row = self.row_of[j];
+            let theta = p.point.y.atan2(p.point.x);
+            if p.gap <= 0.0 {
+                let el = self.layer.element_index(theta)?;
+                self.removals.push((row, el));
+                continue;
+            }
+            if p.gap >= self.layer.remaining_thickness(row, theta)? {
+                continue;
+            }
+            let (f, up) = self.layer.trial(row, theta, e_abr - p.gap)?;
+            self.pending.push(up);
+            if f <= 0.0 {
+                continue;
+            }
+            if !any {
+                self.fi.iter_mut().for_each(|x| *x = 0.0);
+                self.fc.iter_mut().for_each(|x| *x = 0.0);
+                any = true;
+            }
+            // Relative increment of the node w.r.t. the casing material point (eq. 15).
+            let mut inc = gam[node] - gam_prev[node];
+            if fr.flexible {
+                let now = fr.spline.evaluate(fr.q, &p.param);
+                let before = fr.spline.evaluate(fr.q_prev, &p.param);
+                match (now, before) {
+                    (Ok(a), Ok(b)) => inc -= a.s - b.s,
+                    (Err(e), _) | (_, Err(e)) => return Err(SimError::Spline(e.to_string())),
+                }
+            }
+            let t = if self.mu > 0.0 {
+                friction_direction(&p.normal, &inc)
+            } else {
+                None
+            };
+            let fdir = (p.normal + t.unwrap_or_else(Vector3::zeros) * self.mu) * f;
+            let floc = fr.rot_i[s].transpose() * fr.r_om.transpose() * fdir;
+            for d in 0..3 {
+                self.fi[s * self.nbi + 3 * j + d] += floc[d];
+            }
+            if fr.flexible {
+                add_casing_force_global(
+                    fr.spline,
+                    &p.param,
+                    &(-fdir),
+                    &mut self.wu,
+                    &mut self.wv,
+                    &mut self.fc,
+                )?;
+            }
+            self.blade_force[s] += f;
+        }
+        if any {
+            if fr.flexible {
+                rotate_to_sector_frames(fr.rot_c, fr.mc, &mut self.fc);
+            }
+            self.out.coating_steps += 1;
+            let peak = self.blade_force.iter().fold(0.0f64, |m, &x| m.max(x));
+            self.out.peak_force = self.out.peak_force.max(peak);
+        }
+        Ok(any)
+    }
+
+    /// Flags for removal the elements under nodes that penetrate the casing after the coating
+    /// correction (projections of the corrected state).
+    fn flag_penetrations(&mut self, nci: usize, proj: &[Projection]) -> Result<(), SimError> {
+        for (node, p) in proj.iter().enumerate() {
+            if p.gap < 0.0 {
+                let row = self.row_of[node % nci];
+                let el = self.layer.element_index(p.point.y.atan2(p.point.x))?;
+                self.removals.push((row, el));
+            }
+        }
+        Ok(())
+    }
+
+    /// Step 3: commits the trial states and the removals of the step; updates the running
+    /// per-row maximum wear and removal counts (wear never decreases, so running values are exact).
+    fn commit(&mut self) -> Result<(), SimError> {
+        let e_abr = self.layer.material().thickness;
+        for up in &self.pending {
+            self.layer.commit(up)?;
+            let w = self.layer.plastic_strain(up.row, up.element)? * e_abr;
+            self.max_wear_row[up.row] = self.max_wear_row[up.row].max(w);
+        }
+        for &(row, el) in &self.removals {
+            if self.layer.plastic_strain(row, el)? < 1.0 {
+                self.layer.remove(row, el)?;
+                self.removed_row[row] += 1;
+                self.max_wear_row[row] = e_abr;
+            }
+        }
+        self.pending.clear();
+        self.removals.clear();
+        Ok(())
+    }
+
+    /// Records one probe sample.
+    fn sample(&mut self) {
+        for (r, w) in self.max_wear_row.iter().enumerate() {
+            self.out.max_wear[r].push(*w);
+        }
+        for (b, f) in self.blade_force.iter().enumerate() {
+            self.out.blade_force[b].push(*f);
+        }
+    }
+
+    /// The final coating probes.
+    fn finish(mut self) -> Result<CoatingOutput, SimError> {
+        self.out.final_wear = (0..self.layer.n_rows())
+            .map(|r| self.layer.wear_profile(r))
+            .collect::<Result<_, _>>()?;
+        self.out.removed_elements = self.removed_row.clone();
+        self.out.max_wear_final = self.layer.max_wear();
+        Ok(self.out)
+    }
+}
+
+/// Adds to `fc` the casing boundary forces of a global force `f` (N) applied at the spline
+/// point `param`, distributed to the data points through `B̂ c` (eq. 18). The forces are left in
+/// the *global* frame (one rotation per node at the end, [`rotate_to_sector_frames`], instead of
+/// one per contact).
+fn add_casing_force_global(
+    spline: &CasingSpline,
+    param: &SurfaceParam,
+    f: &Vector3<f64>,
+    wu: &mut [f64],
+    wv: &mut [f64],
+    fc: &mut [f64],
+) -> Result<(), SimError> {
+    spline
+        .node_weight_factors(param, wu, wv)
+        .map_err(|e| SimError::Spline(e.to_string()))?;
+    let nbc = 3 * wv.len();
+    for (i, &a) in wu.iter().enumerate() {
+        if a == 0.0 {
+            continue;
+        }
+        let fa = f * a;
+        for (j, &b) in wv.iter().enumerate() {
+            for d in 0..3 {
+                fc[i * nbc + 3 * j + d] += b * fa[d];
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Rotates global-frame casing boundary forces (sector-major) into each sector's local frame.
+fn rotate_to_sector_frames(rot_c: &[Matrix3<f64>], mc: usize, fc: &mut [f64]) {
+    let nbc = 3 * mc;
+    for (i, r) in rot_c.iter().enumerate() {
+        for j in 0..mc {
+            let k = i * nbc + 3 * j;
+            let v = r.transpose() * Vector3::new(fc[k], fc[k + 1], fc[k + 2]);
+            fc[k..k + 3].copy_from_slice(v.as_slice());
+        }
+    }
+}
+
+impl CoatingStage {
+    /// Refuses a coating too stiff for the explicit treatment of its force. The coating force
+    /// is evaluated on the predicted position and applied through `A⁻¹`: for a node of normal
+    /// flexibility `w = nᵀ A⁻¹ n` (impeller + casing, m/N, ∝ h²) on an element of stiffness
+    /// `k = E A / e_abr` the step map is `u ← (1 − k w) u*`, stable for `k w < 4/3` and
+    /// non-oscillating for `k w < 1`, which is required here.
+    fn check_stability(
+        &self,
+        ki: &mut dyn StructureKernel,
+        kc: Option<&mut (dyn StructureKernel + '_)>,
+        er_i: &[Vector3<f64>],
+        er_c: &[Vector3<f64>],
+    ) -> Result<(), SimError> {
+        let unit_radial = |k: &mut dyn StructureKernel, e: &[Vector3<f64>]| {
+            let nb = k.n_boundary();
+            let mut f = vec![0.0; k.n_sectors() * nb];
+            let mut u = vec![0.0; k.n_sectors() * nb];
+            e.iter()
+                .enumerate()
+                .map(|(j, ej)| {
+                    f.iter_mut().for_each(|x| *x = 0.0);
+                    for d in 0..3 {
+                        f[3 * j + d] = ej[d];
+                    }
+                    k.response(&f, &mut u);
+                    (0..3).map(|d| ej[d] * u[3 * j + d]).sum::<f64>()
+                })
+                .collect::<Vec<f64>>()
+        };
+        let w_i = unit_radial(ki, er_i);
+        let w_c = kc.map_or(0.0, |k| {
+            unit_radial(k, er_c).into_iter().fold(0.0f64, f64::max)
+        });
+        for (j, wi) in w_i.iter().enumerate() {
+            let k = self.elastic_stiffness(self.row_of[j]);
+            let ratio = k * (wi + w_c);
+            if ratio.is_nan() || ratio >= 1.0 {
+                return Err(SimError::InvalidCase(format!(
+                    "coating too stiff for the time step: row {} has E·A/e_abr = {k:.3e} N/m and \
+                     contact flexibility {:.3e} m/N, k·w = {ratio:.3} ≥ 1; reduce numerics.time_step \
+                     (k·w ∝ h²) or the tip area",
+                    self.row_of[j],
+                    wi + w_c
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -744,6 +1131,36 @@ mod tests {
     use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
     use crate::model::rom::{Component, ContactNode, Damping, HarmonicBlock, HermitianMatrix};
     use nalgebra::DMatrix;
+
+    /// The casing share of a contact force is a partition of `f` over the data points: rotated
+    /// back to the global frame the node forces sum to `f` (the spline weights sum to 1).
+    #[test]
+    fn casing_force_distribution_sums_to_the_contact_force() {
+        let (n, m) = (8, 3);
+        let sp = CasingSpline::new(n, m).unwrap();
+        let rot: Vec<Matrix3<f64>> = (0..n)
+            .map(|i| rot_z(i as f64 * 2.0 * PI / n as f64))
+            .collect();
+        let (mut wu, mut wv) = (vec![0.0; n], vec![0.0; m]);
+        let mut fc = vec![0.0; n * 3 * m];
+        let f = Vector3::new(1.0, -2.0, 3.0);
+        let param = SurfaceParam {
+            i: 2,
+            j: 1,
+            u: 0.3,
+            v: 0.6,
+        };
+        add_casing_force_global(&sp, &param, &f, &mut wu, &mut wv, &mut fc).unwrap();
+        rotate_to_sector_frames(&rot, m, &mut fc);
+        let mut total = Vector3::zeros();
+        for (i, r) in rot.iter().enumerate() {
+            for j in 0..m {
+                let k = i * 3 * m + 3 * j;
+                total += r * Vector3::new(fc[k], fc[k + 1], fc[k + 2]);
+            }
+        }
+        assert!((total - f).norm() <= 1e-12 * f.norm(), "{total:?}");
+    }
 
     fn small_pair(nb: usize) -> (CyclicRom, CyclicRom) {
         let imp = synthetic_rom(&SyntheticSpec::small(Component::Impeller, nb, 2, 2));
@@ -777,6 +1194,7 @@ mod tests {
                 decimation: 5,
                 ..Default::default()
             },
+            coating: None,
         }
     }
 
@@ -894,6 +1312,7 @@ mod tests {
                 newton_tolerance: 1e-12,
                 ..Default::default()
             },
+            coating: None,
         };
         let out = simulate(&case, &rom, &casing, None).unwrap();
         let tc = (g0 * w / v0).asin() / w;
@@ -971,6 +1390,7 @@ mod tests {
                 decimation: 1,
                 ..Default::default()
             },
+            coating: None,
         };
         let out = simulate(&case, &imp, &CasingModel::Flexible(cas), None).unwrap();
         assert!(out.contact_steps > 5);
