@@ -11,13 +11,15 @@ use serde_json::Value;
 
 use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
 use crate::analysis::spectra::{PeakOptions, SpectrumAnalyzer};
+use crate::dynamics::abradable::CoatingMaterial;
+use crate::dynamics::scenario::CoatingCase;
 use crate::dynamics::{
     Case, CasingModel, LobeLoad, Numerics, RigidCasing, RigidShape, SimulationOutput, simulate,
 };
 use crate::io::{model_cache, rom_file};
 use crate::model::build::{CasingSpec, ImpellerSpec};
 use crate::model::rom::CyclicRom;
-use crate::sweep::planner::Job;
+use crate::sweep::planner::{CoatingParams, CoatingValue, Job};
 use crate::sweep::spec::{CasingSource, ModelSource, SweepSpec};
 use crate::sweep::{CriticalSpeed, FourierPeak, JobResult, JobSimulator, Maxima, Spectrum};
 
@@ -35,6 +37,70 @@ pub struct ScenarioExtras {
     pub steady_fraction: Option<f64>,
     /// Circumferential stations of a rigid casing's spline (default 120).
     pub rigid_stations: Option<usize>,
+    /// Abradable coating on the casing (nominal values; the grid's `coating` axes scale or
+    /// replace them). Also switched on, with nominal values, by a `grid.coating` axis.
+    pub coating: Option<CoatingScenario>,
+}
+
+/// Nominal abradable coating of a sweep (paper §4); defaults: [`CoatingMaterial::nominal`].
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CoatingScenario {
+    /// Young's modulus E (Pa).
+    pub young_pa: f64,
+    /// Plastic (hardening) modulus K (Pa).
+    pub hardening_pa: f64,
+    /// Yield stress σ_Y (Pa).
+    pub yield_stress_pa: f64,
+    /// Thickness e_abr (m).
+    pub thickness_m: f64,
+    /// Elements per circumferential row η.
+    pub eta: usize,
+}
+
+impl Default for CoatingScenario {
+    fn default() -> Self {
+        let m = CoatingMaterial::nominal();
+        Self {
+            young_pa: m.young,
+            hardening_pa: m.plastic_modulus,
+            yield_stress_pa: m.yield_stress,
+            thickness_m: m.thickness,
+            eta: 6000,
+        }
+    }
+}
+
+/// Applies one grid coating value to a nominal one.
+fn resolve(nominal: f64, value: Option<CoatingValue>) -> f64 {
+    match value {
+        None => nominal,
+        Some(CoatingValue::Absolute(v)) => v,
+        Some(CoatingValue::Scale(f)) => f * nominal,
+    }
+}
+
+/// The coating of one job: the scenario's nominal coating with the job's grid values applied;
+/// `None` when neither the scenario nor the grid asks for a coating.
+fn job_coating(extras: &ScenarioExtras, params: &CoatingParams) -> Option<CoatingCase> {
+    let on_grid = params.young.is_some()
+        || params.hardening.is_some()
+        || params.yield_stress.is_some()
+        || params.thickness.is_some();
+    if extras.coating.is_none() && !on_grid {
+        return None;
+    }
+    let n = extras.coating.clone().unwrap_or_default();
+    let material = CoatingMaterial {
+        young: resolve(n.young_pa, params.young),
+        plastic_modulus: resolve(n.hardening_pa, params.hardening),
+        yield_stress: resolve(n.yield_stress_pa, params.yield_stress),
+        thickness: resolve(n.thickness_m, params.thickness),
+    };
+    Some(CoatingCase {
+        eta: n.eta,
+        ..CoatingCase::new(material)
+    })
 }
 
 /// Default tip clearance (m) of a rigid casing when the grid gives none.
@@ -199,11 +265,15 @@ impl ModelSimulator {
         let duration = ctx.scenario.duration_s;
         let rows = tip_rows(&self.impeller).len();
         let p = &job.params;
+        let coating = job_coating(&extras, &p.coating);
+        // Clearances are to the coating surface: the tips move in by the coating thickness.
+        let e_abr = coating.as_ref().map_or(0.0, |c| c.material.thickness);
         let (casing, clearance_offset, load) = match &self.casing {
             ResolvedCasing::Flexible(rom) => {
                 let offset = match (p.clearance_m, self.nominal_clearance) {
-                    (None, _) => vec![],
-                    (Some(c), Some(c0)) => vec![c0 - c; rows],
+                    (None, _) if e_abr == 0.0 => vec![],
+                    (None, _) => vec![-e_abr; rows],
+                    (Some(c), Some(c0)) => vec![c0 - c - e_abr; rows],
                     (Some(_), None) => bail!(
                         "grid.clearance_m needs a built-in impeller (a ROM file does not state its clearance)"
                     ),
@@ -225,7 +295,7 @@ impl ModelSimulator {
                 let clearance = p.clearance_m.unwrap_or(DEFAULT_RIGID_CLEARANCE);
                 let rigid = RigidCasing {
                     n_sectors: extras.rigid_stations.unwrap_or(120),
-                    meridian: rigid_meridian(&tip_rows(&self.impeller), clearance),
+                    meridian: rigid_meridian(&tip_rows(&self.impeller), clearance + e_abr),
                     shape: RigidShape::Lobes {
                         lobes: *lobes,
                         amplitude: *amplitude,
@@ -243,6 +313,7 @@ impl ModelSimulator {
             casing_probes: extras.casing_probes.clone(),
             initial_velocity: Default::default(),
             numerics,
+            coating,
         };
         Ok((case, casing, extras))
     }
@@ -298,7 +369,10 @@ pub fn aggregate(
         blade_te_radial_m: abs_max(&out.blade_te_radial),
         casing_radial_m: abs_max(&out.casing_radial),
         contact_normal_force_n: abs_max(&out.blade_normal_force),
-        coating_force_n: 0.0,
+        coating_force_n: out
+            .coating
+            .as_ref()
+            .map_or(0.0, |c| abs_max(&c.blade_force)),
     };
     let first = out
         .time
@@ -352,7 +426,10 @@ pub fn aggregate(
         .collect();
     Ok(JobResult {
         maxima,
-        wear_profile_m: vec![],
+        wear_profile_m: out
+            .coating
+            .as_ref()
+            .map_or(vec![], |c| c.final_wear.clone()),
         fourier_peaks,
         strain_energy_per_nd_j,
         residual_penetration_m: out.max_residual_penetration,
