@@ -2,6 +2,7 @@
 //! and usable from the CLI): wall-clock µs per time step, single thread.
 
 use crate::dynamics::numerics::{KernelChoice, Numerics};
+use crate::dynamics::probes::StageSeconds;
 use crate::dynamics::scenario::{Case, CasingModel, InitialVelocity};
 use crate::dynamics::simulate::{SimError, simulate};
 use crate::dynamics::structure::Structure;
@@ -16,6 +17,11 @@ pub struct BenchResult {
     /// Fraction of (step × blade-tip node) pairs with a positive contact force.
     pub contact_fraction: f64,
     pub n_steps: usize,
+    /// The loop time per step split by stage (µs per step).
+    pub stage_us: StageSeconds,
+    /// Time step h (s) and steps per revolution at the bench speed.
+    pub time_step: f64,
+    pub steps_per_revolution: f64,
 }
 
 /// Times `steps` steps of `impeller` in the flexible `casing` at Ω = `omega`, with the kernel
@@ -69,10 +75,22 @@ pub fn bench_time_step(
         .filter(|&&f| f > 0.0)
         .count() as f64
         / (out.time.len().max(1) as f64 * nodes);
+    let per = 1e6 / out.n_steps.max(1) as f64;
+    let st = out.stage_seconds;
     Ok(BenchResult {
-        us_per_step: out.loop_seconds / out.n_steps.max(1) as f64 * 1e6,
+        us_per_step: out.loop_seconds * per,
         contact_fraction: in_contact,
         n_steps: out.n_steps,
+        stage_us: StageSeconds {
+            predict: st.predict * per,
+            spline: st.spline * per,
+            projection: st.projection * per,
+            contact_solve: st.contact_solve * per,
+            correction: st.correction * per,
+            other: st.other * per,
+        },
+        time_step: out.time_step,
+        steps_per_revolution: out.steps_per_revolution,
     })
 }
 
@@ -91,6 +109,46 @@ pub fn bench_paper_scale(
         0.0
     };
     bench_time_step(&imp, &cas, 1000.0, kernel, off, steps)
+}
+
+/// Radial clearance (m) between the impeller's last (trailing-edge) contact row and the
+/// casing contact node closest to it along z: positive when the blade tip is inside.
+pub fn trailing_edge_clearance(impeller: &CyclicRom, casing: &CyclicRom) -> f64 {
+    let r = |p: &[f64; 3]| (p[0] * p[0] + p[1] * p[1]).sqrt();
+    let te = impeller
+        .contact_nodes
+        .iter()
+        .max_by_key(|c| c.row)
+        .map(|c| c.position)
+        .unwrap_or_default();
+    let near = casing
+        .contact_nodes
+        .iter()
+        .map(|c| c.position)
+        .min_by(|a, b| (a[2] - te[2]).abs().total_cmp(&(b[2] - te[2]).abs()))
+        .unwrap_or_default();
+    r(&near) - r(&te)
+}
+
+/// [`bench_time_step`] on the built-in paper-scale models
+/// (`app::impeller_rom(&ImpellerSpec::default())`, `app::casing_rom(&CasingSpec::default())`,
+/// built on first use and cached) at Ω = `omega` (rad/s). With `contact`, the trailing-edge
+/// row is moved outward by 1.5 × its clearance, which keeps it rubbing.
+pub fn bench_default_models(
+    kernel: KernelChoice,
+    contact: bool,
+    omega: f64,
+    steps: usize,
+) -> anyhow::Result<BenchResult> {
+    use crate::model::build::{CasingSpec, ImpellerSpec};
+    let imp = crate::app::impeller_rom(&ImpellerSpec::default())?;
+    let cas = crate::app::casing_rom(&CasingSpec::default())?;
+    let off = if contact {
+        1.5 * trailing_edge_clearance(&imp, &cas).max(0.0)
+    } else {
+        0.0
+    };
+    Ok(bench_time_step(&imp, &cas, omega, kernel, off, steps)?)
 }
 
 #[cfg(test)]
@@ -160,5 +218,39 @@ mod tests {
                 r.us_per_step, r.contact_fraction
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod stage_timing {
+    use super::*;
+
+    /// One timed run with the stage breakdown. Knobs (environment): `BENCH_CONTACT` (any value:
+    /// trailing-edge row rubbing), `BENCH_DENSE` (reference kernel), `BENCH_BUILTIN` (built-in
+    /// models at Ω = 3000 rad/s instead of the synthetic ones), `BENCH_STEPS` (default 30000).
+    #[test]
+    #[ignore = "timing; run with --ignored --nocapture"]
+    fn print_stage_breakdown() {
+        faer::set_global_parallelism(faer::Par::Seq);
+        let on = |k: &str| std::env::var(k).is_ok();
+        let steps = std::env::var("BENCH_STEPS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(30000);
+        let kernel = if on("BENCH_DENSE") {
+            KernelChoice::DenseReference
+        } else {
+            KernelChoice::Fast
+        };
+        let contact = on("BENCH_CONTACT");
+        let r = if on("BENCH_BUILTIN") {
+            bench_default_models(kernel, contact, 3000.0, steps).unwrap()
+        } else {
+            bench_paper_scale(kernel, contact, steps).unwrap()
+        };
+        println!(
+            "{kernel:?} contact={contact}: {:.2} µs/step, contact fraction {:.3}, h = {:.3e} s, {:.0} steps/rev\n{:?}",
+            r.us_per_step, r.contact_fraction, r.time_step, r.steps_per_revolution, r.stage_us
+        );
     }
 }
