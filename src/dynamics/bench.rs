@@ -36,11 +36,6 @@ pub fn bench_time_step(
     contact_offset: f64,
     steps: usize,
 ) -> Result<BenchResult, SimError> {
-    let h = 0.5
-        * Structure::new(impeller, omega)?
-            .stability_limit()
-            .min(Structure::new(casing, 0.0)?.stability_limit())
-            .min(2e-7);
     let rows = impeller
         .contact_nodes
         .iter()
@@ -50,6 +45,23 @@ pub fn bench_time_step(
         + 1;
     let mut offs = vec![0.0; rows];
     offs[rows - 1] = contact_offset;
+    bench_with_offsets(impeller, casing, omega, kernel, offs, steps)
+}
+
+/// [`bench_time_step`] with an explicit outward offset (m) per impeller contact row.
+pub fn bench_with_offsets(
+    impeller: &CyclicRom,
+    casing: &CyclicRom,
+    omega: f64,
+    kernel: KernelChoice,
+    offs: Vec<f64>,
+    steps: usize,
+) -> Result<BenchResult, SimError> {
+    let h = 0.5
+        * Structure::new(impeller, omega)?
+            .stability_limit()
+            .min(Structure::new(casing, 0.0)?.stability_limit())
+            .min(2e-7);
     let casing = CasingModel::Flexible(casing.clone());
     let case = Case {
         omega,
@@ -111,29 +123,39 @@ pub fn bench_paper_scale(
     bench_time_step(&imp, &cas, 1000.0, kernel, off, steps)
 }
 
-/// Radial clearance (m) between the impeller's last (trailing-edge) contact row and the
-/// casing contact node closest to it along z: positive when the blade tip is inside.
-pub fn trailing_edge_clearance(impeller: &CyclicRom, casing: &CyclicRom) -> f64 {
+/// Radial clearance (m) of the impeller's contact row `row` (its first node): the casing
+/// meridian (contact nodes, `(r, z)` by row) interpolated linearly at the node's `z`, minus the
+/// node's radius. Positive when the blade tip is inside. An estimate for benchmark setups.
+pub fn radial_clearance(impeller: &CyclicRom, casing: &CyclicRom, row: usize) -> f64 {
     let r = |p: &[f64; 3]| (p[0] * p[0] + p[1] * p[1]).sqrt();
-    let te = impeller
+    let Some(node) = impeller.contact_nodes.iter().find(|c| c.row == row) else {
+        return 0.0;
+    };
+    let (rb, zb) = (r(&node.position), node.position[2]);
+    let mer: Vec<(f64, f64)> = casing
         .contact_nodes
         .iter()
-        .max_by_key(|c| c.row)
-        .map(|c| c.position)
-        .unwrap_or_default();
-    let near = casing
-        .contact_nodes
-        .iter()
-        .map(|c| c.position)
-        .min_by(|a, b| (a[2] - te[2]).abs().total_cmp(&(b[2] - te[2]).abs()))
-        .unwrap_or_default();
-    r(&near) - r(&te)
+        .map(|c| (r(&c.position), c.position[2]))
+        .collect();
+    let mut best = (f64::INFINITY, 0.0);
+    for w in mer.windows(2) {
+        let ((r0, z0), (r1, z1)) = (w[0], w[1]);
+        let t = if z1 != z0 { (zb - z0) / (z1 - z0) } else { 0.0 };
+        let tc = t.clamp(0.0, 1.0);
+        // Distance outside the segment's z-range ranks the candidates.
+        let miss = (t - tc).abs();
+        if miss < best.0 {
+            best = (miss, r0 + tc * (r1 - r0) - rb);
+        }
+    }
+    best.1
 }
 
 /// [`bench_time_step`] on the built-in paper-scale models
 /// (`app::impeller_rom(&ImpellerSpec::default())`, `app::casing_rom(&CasingSpec::default())`,
-/// built on first use and cached) at Ω = `omega` (rad/s). With `contact`, the trailing-edge
-/// row is moved outward by 1.5 × its clearance, which keeps it rubbing.
+/// built on first use and cached) at Ω = `omega` (rad/s). With `contact`, the middle contact
+/// row is moved outward by 1.5 × its radial clearance, which keeps it rubbing (the trailing
+/// edge of the built-in impeller meets the casing's radial outlet wall, so it is not used).
 pub fn bench_default_models(
     kernel: KernelChoice,
     contact: bool,
@@ -143,12 +165,12 @@ pub fn bench_default_models(
     use crate::model::build::{CasingSpec, ImpellerSpec};
     let imp = crate::app::impeller_rom(&ImpellerSpec::default())?;
     let cas = crate::app::casing_rom(&CasingSpec::default())?;
-    let off = if contact {
-        1.5 * trailing_edge_clearance(&imp, &cas).max(0.0)
-    } else {
-        0.0
-    };
-    Ok(bench_time_step(&imp, &cas, omega, kernel, off, steps)?)
+    let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap_or(0) + 1;
+    let mut offs = vec![0.0; rows];
+    if contact {
+        offs[rows / 2] = 1.5 * radial_clearance(&imp, &cas, rows / 2).max(0.0);
+    }
+    Ok(bench_with_offsets(&imp, &cas, omega, kernel, offs, steps)?)
 }
 
 #[cfg(test)]
