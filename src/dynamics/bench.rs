@@ -2,6 +2,7 @@
 //! and usable from the CLI): wall-clock µs per time step, single thread.
 
 use crate::dynamics::numerics::{KernelChoice, Numerics};
+use crate::dynamics::probes::StageSeconds;
 use crate::dynamics::scenario::{Case, CasingModel, InitialVelocity};
 use crate::dynamics::simulate::{SimError, simulate};
 use crate::dynamics::structure::Structure;
@@ -16,6 +17,11 @@ pub struct BenchResult {
     /// Fraction of (step × blade-tip node) pairs with a positive contact force.
     pub contact_fraction: f64,
     pub n_steps: usize,
+    /// The loop time per step split by stage (µs per step).
+    pub stage_us: StageSeconds,
+    /// Time step h (s) and steps per revolution at the bench speed.
+    pub time_step: f64,
+    pub steps_per_revolution: f64,
 }
 
 /// Times `steps` steps of `impeller` in the flexible `casing` at Ω = `omega`, with the kernel
@@ -30,11 +36,6 @@ pub fn bench_time_step(
     contact_offset: f64,
     steps: usize,
 ) -> Result<BenchResult, SimError> {
-    let h = 0.5
-        * Structure::new(impeller, omega)?
-            .stability_limit()
-            .min(Structure::new(casing, 0.0)?.stability_limit())
-            .min(2e-7);
     let rows = impeller
         .contact_nodes
         .iter()
@@ -44,6 +45,23 @@ pub fn bench_time_step(
         + 1;
     let mut offs = vec![0.0; rows];
     offs[rows - 1] = contact_offset;
+    bench_with_offsets(impeller, casing, omega, kernel, offs, steps)
+}
+
+/// [`bench_time_step`] with an explicit outward offset (m) per impeller contact row.
+pub fn bench_with_offsets(
+    impeller: &CyclicRom,
+    casing: &CyclicRom,
+    omega: f64,
+    kernel: KernelChoice,
+    offs: Vec<f64>,
+    steps: usize,
+) -> Result<BenchResult, SimError> {
+    let h = 0.5
+        * Structure::new(impeller, omega)?
+            .stability_limit()
+            .min(Structure::new(casing, 0.0)?.stability_limit())
+            .min(2e-7);
     let casing = CasingModel::Flexible(casing.clone());
     let case = Case {
         omega,
@@ -70,10 +88,22 @@ pub fn bench_time_step(
         .filter(|&&f| f > 0.0)
         .count() as f64
         / (out.time.len().max(1) as f64 * nodes);
+    let per = 1e6 / out.n_steps.max(1) as f64;
+    let st = out.stage_seconds;
     Ok(BenchResult {
-        us_per_step: out.loop_seconds / out.n_steps.max(1) as f64 * 1e6,
+        us_per_step: out.loop_seconds * per,
         contact_fraction: in_contact,
         n_steps: out.n_steps,
+        stage_us: StageSeconds {
+            predict: st.predict * per,
+            spline: st.spline * per,
+            projection: st.projection * per,
+            contact_solve: st.contact_solve * per,
+            correction: st.correction * per,
+            other: st.other * per,
+        },
+        time_step: out.time_step,
+        steps_per_revolution: out.steps_per_revolution,
     })
 }
 
@@ -92,6 +122,56 @@ pub fn bench_paper_scale(
         0.0
     };
     bench_time_step(&imp, &cas, 1000.0, kernel, off, steps)
+}
+
+/// Radial clearance (m) of the impeller's contact row `row` (its first node): the casing
+/// meridian (contact nodes, `(r, z)` by row) interpolated linearly at the node's `z`, minus the
+/// node's radius. Positive when the blade tip is inside. An estimate for benchmark setups.
+pub fn radial_clearance(impeller: &CyclicRom, casing: &CyclicRom, row: usize) -> f64 {
+    let r = |p: &[f64; 3]| (p[0] * p[0] + p[1] * p[1]).sqrt();
+    let Some(node) = impeller.contact_nodes.iter().find(|c| c.row == row) else {
+        return 0.0;
+    };
+    let (rb, zb) = (r(&node.position), node.position[2]);
+    let mer: Vec<(f64, f64)> = casing
+        .contact_nodes
+        .iter()
+        .map(|c| (r(&c.position), c.position[2]))
+        .collect();
+    let mut best = (f64::INFINITY, 0.0);
+    for w in mer.windows(2) {
+        let ((r0, z0), (r1, z1)) = (w[0], w[1]);
+        let t = if z1 != z0 { (zb - z0) / (z1 - z0) } else { 0.0 };
+        let tc = t.clamp(0.0, 1.0);
+        // Distance outside the segment's z-range ranks the candidates.
+        let miss = (t - tc).abs();
+        if miss < best.0 {
+            best = (miss, r0 + tc * (r1 - r0) - rb);
+        }
+    }
+    best.1
+}
+
+/// [`bench_time_step`] on the built-in paper-scale models
+/// (`app::impeller_rom(&ImpellerSpec::default())`, `app::casing_rom(&CasingSpec::default())`,
+/// built on first use and cached) at Ω = `omega` (rad/s). With `contact`, the middle contact
+/// row is moved outward by 1.5 × its radial clearance, which keeps it rubbing (the trailing
+/// edge of the built-in impeller meets the casing's radial outlet wall, so it is not used).
+pub fn bench_default_models(
+    kernel: KernelChoice,
+    contact: bool,
+    omega: f64,
+    steps: usize,
+) -> anyhow::Result<BenchResult> {
+    use crate::model::build::{CasingSpec, ImpellerSpec};
+    let imp = crate::app::impeller_rom(&ImpellerSpec::default())?;
+    let cas = crate::app::casing_rom(&CasingSpec::default())?;
+    let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap_or(0) + 1;
+    let mut offs = vec![0.0; rows];
+    if contact {
+        offs[rows / 2] = 1.5 * radial_clearance(&imp, &cas, rows / 2).max(0.0);
+    }
+    Ok(bench_with_offsets(&imp, &cas, omega, kernel, offs, steps)?)
 }
 
 #[cfg(test)]
@@ -161,5 +241,39 @@ mod tests {
                 r.us_per_step, r.contact_fraction
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod stage_timing {
+    use super::*;
+
+    /// One timed run with the stage breakdown. Knobs (environment): `BENCH_CONTACT` (any value:
+    /// trailing-edge row rubbing), `BENCH_DENSE` (reference kernel), `BENCH_BUILTIN` (built-in
+    /// models at Ω = 3000 rad/s instead of the synthetic ones), `BENCH_STEPS` (default 30000).
+    #[test]
+    #[ignore = "timing; run with --ignored --nocapture"]
+    fn print_stage_breakdown() {
+        faer::set_global_parallelism(faer::Par::Seq);
+        let on = |k: &str| std::env::var(k).is_ok();
+        let steps = std::env::var("BENCH_STEPS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(30000);
+        let kernel = if on("BENCH_DENSE") {
+            KernelChoice::DenseReference
+        } else {
+            KernelChoice::Fast
+        };
+        let contact = on("BENCH_CONTACT");
+        let r = if on("BENCH_BUILTIN") {
+            bench_default_models(kernel, contact, 3000.0, steps).unwrap()
+        } else {
+            bench_paper_scale(kernel, contact, steps).unwrap()
+        };
+        println!(
+            "{kernel:?} contact={contact}: {:.2} µs/step, contact fraction {:.3}, h = {:.3e} s, {:.0} steps/rev\n{:?}",
+            r.us_per_step, r.contact_fraction, r.time_step, r.steps_per_revolution, r.stage_us
+        );
     }
 }

@@ -9,7 +9,7 @@ use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
 use crate::dynamics::numerics::KernelChoice;
-use crate::dynamics::probes::{CoatingOutput, SimulationOutput};
+use crate::dynamics::probes::{CoatingOutput, SimulationOutput, Stage, StageClock};
 use crate::dynamics::scenario::{Case, CasingModel, CoatingCase};
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::model::rom::CyclicRom;
@@ -382,6 +382,7 @@ pub fn simulate(
     let radius_scale = rest_nodes.iter().map(|p| p.xy().norm()).fold(0.0, f64::max);
 
     let clock = std::time::Instant::now();
+    let mut stages = StageClock::new();
     for step in 0..n_steps {
         let t_n = step as f64 * h;
         let t1 = t_n + h;
@@ -396,6 +397,7 @@ pub fn simulate(
         if let Some(k) = kc.as_mut() {
             k.predict(case.load_factor(t_n));
         }
+        stages.lap(Stage::Predict);
         // 2. Spline on the predicted casing nodes.
         if let Some(k) = kc.as_ref() {
             fill_casing_nodes(k.boundary(), &rot_c, &y_c, mc, &mut pnodes);
@@ -403,6 +405,7 @@ pub fn simulate(
                 .control_points(&pnodes, &mut q)
                 .map_err(|e| SimError::Spline(e.to_string()))?;
         }
+        stages.lap(Stage::Spline);
         // 3. Blade-tip nodes and closest points.
         let r_om = rot_z(case.omega * t1);
         fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
@@ -470,6 +473,7 @@ pub fn simulate(
                 });
             }
         }
+        stages.lap(Stage::Projection);
         force_n.iter_mut().for_each(|x| *x = 0.0);
         force_t.iter_mut().for_each(|x| *x = 0.0);
         let in_contact = !cands.is_empty();
@@ -561,6 +565,7 @@ pub fn simulate(
                     reason: "singular contact matrix W".into(),
                 });
             }
+            stages.lap(Stage::ContactSolve);
             // Corrections, opposite signs on the two structures.
             fi.iter_mut().for_each(|x| *x = 0.0);
             for (k, cd) in cands.iter().enumerate() {
@@ -629,6 +634,7 @@ pub fn simulate(
                     ),
                 });
             }
+            stages.lap(Stage::Correction);
         }
         gam_prev.copy_from_slice(&gam);
         if kc.is_some() {
@@ -690,10 +696,12 @@ pub fn simulate(
                 out.impeller_nd_strain_energy[k].push(*v);
             }
         }
+        stages.lap(Stage::Other);
     }
     out.max_residual_penetration = out.max_residual_penetration.max(window_residual).max(0.0);
     out.loop_seconds = clock.elapsed().as_secs_f64();
     out.coating = coat.map(CoatingStage::finish).transpose()?;
+    out.stage_seconds = stages.seconds;
     Ok(out)
 }
 
