@@ -35,10 +35,9 @@ pub fn cached_rom<S: serde::Serialize>(
     let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION });
     let hash = fnv1a64(canonical_json(&key).as_bytes());
     let path = cache_dir().join(format!("{kind}-{hash:016x}.rom"));
-    if path.exists() {
-        if let Ok(rom) = rom_file::load(&path) {
-            return Ok((rom, true));
-        }
+    // A missing or unreadable cache entry is rebuilt.
+    if let Ok(rom) = rom_file::load(&path) {
+        return Ok((rom, true));
     }
     let rom = build(spec)?;
     // A cache that cannot be written only costs time later.

@@ -1,0 +1,198 @@
+//! End-to-end behaviour of the `rubscan` binary on small built-in models: a simulation's
+//! Parquet time series, clear errors on bad specs, and a sweep killed with SIGKILL then
+//! resumed giving the table of an uninterrupted run.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use arrow_array::RecordBatch;
+use rubscan::io::parquet::read_results;
+
+const SMALL: &str = "tests/data/small_sweep.json";
+
+fn rubscan() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rubscan"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
+
+fn tmp(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rubscan-cli-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn simulate_writes_documented_time_series() {
+    let out = tmp("sim");
+    let st = rubscan()
+        .args(["simulate", SMALL, "--job", "1", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let file = std::fs::File::open(out.join("timeseries.parquet")).unwrap();
+    let reader =
+        parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file).unwrap();
+    let schema = reader.schema().clone();
+    for name in [
+        "time_s",
+        "blade0_le_radial_m",
+        "blade3_te_radial_m",
+        "casing_probe0_radial_m",
+        "blade0_normal_force_n",
+        "min_gap_m",
+    ] {
+        let f = schema
+            .field_with_name(name)
+            .unwrap_or_else(|_| panic!("column {name} missing"));
+        assert!(f.metadata().contains_key("unit"), "{name} has no unit");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["n_steps"], 10_000);
+    // The two-lobe load pushes the casing 0.8 mm in against a 0.5 mm clearance: contact happens
+    // and moves the blades (the residual-penetration criterion is checked in the dynamics tests).
+    assert!(summary["contact_steps"].as_u64().unwrap() > 0);
+    let level = summary["max_blade_radial_m"].as_f64().unwrap();
+    assert!(level > 0.0 && level < 5e-4, "blade level {level} m");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn bad_specs_fail_with_the_json_path_and_write_nothing() {
+    let dir = tmp("bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let good: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(SMALL).unwrap()).unwrap();
+    let mut negative = good.clone();
+    negative["grid"]["friction"] = serde_json::json!([-0.1]);
+    let mut unknown = good.clone();
+    unknown["scenario"]["load_amplitud_m"] = serde_json::json!(1e-4);
+    let mut too_big_step = good.clone();
+    too_big_step["numerics"]["time_step_s"] = serde_json::json!(1e-4);
+    let cases: [(&str, String, &str); 4] = [
+        ("syntax", "{ \"name\": ".into(), "line"),
+        ("negative", negative.to_string(), "/grid/friction/0"),
+        ("unknown", unknown.to_string(), "load_amplitud_m"),
+        ("unstable", too_big_step.to_string(), "stability limit"),
+    ];
+    for (tag, text, expect) in cases {
+        let path = dir.join(format!("{tag}.json"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.join(format!("out-{tag}"));
+        let st = rubscan()
+            .arg("simulate")
+            .arg(&path)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&st.stderr);
+        assert!(!st.status.success(), "{tag} accepted");
+        assert!(err.contains(expect), "{tag}: {err}");
+        assert!(!out.exists(), "{tag}: output written");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+fn table_without_timing(dir: &Path) -> Vec<RecordBatch> {
+    read_results(&dir.join("results.parquet"))
+        .unwrap()
+        .into_iter()
+        .map(|b| {
+            let keep: Vec<usize> = (0..b.num_columns())
+                .filter(|&i| b.schema().field(i).name() != "wall_time_s")
+                .collect();
+            b.project(&keep).unwrap()
+        })
+        .collect()
+}
+
+fn job_files(dir: &Path) -> usize {
+    std::fs::read_dir(dir.join("jobs")).map_or(0, |d| {
+        d.filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "json")
+        })
+        .count()
+    })
+}
+
+/// "N ran, M skipped" from the runner's last line.
+fn ran_and_skipped(stderr: &str) -> (usize, usize) {
+    let line = stderr
+        .lines()
+        .rev()
+        .find(|l| l.contains(" ran, "))
+        .expect("summary line");
+    let num = |key: &str| {
+        let before = &line[..line.find(key).unwrap()];
+        before.split_whitespace().last().unwrap().parse().unwrap()
+    };
+    (num(" ran"), num(" skipped"))
+}
+
+#[test]
+fn sigkill_then_resume_equals_an_uninterrupted_run() {
+    let (killed, full) = (tmp("killed"), tmp("full"));
+    let st = rubscan()
+        .args(["run", SMALL, "--threads", "1", "-o"])
+        .arg(&full)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let planned = job_files(&full);
+    assert_eq!(planned, 6);
+
+    let mut child = rubscan()
+        .args(["run", SMALL, "--threads", "1", "-o"])
+        .arg(&killed)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while job_files(&killed) < 2 && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    let done_before = job_files(&killed);
+    assert!(
+        (2..planned).contains(&done_before),
+        "kill landed after {done_before} jobs"
+    );
+
+    let st = rubscan()
+        .args(["run", SMALL, "--threads", "2", "-o"])
+        .arg(&killed)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert!(st.status.success(), "{err}");
+    assert_eq!(
+        ran_and_skipped(&err),
+        (planned - done_before, done_before),
+        "{err}"
+    );
+    assert_eq!(
+        table_without_timing(&killed),
+        table_without_timing(&full),
+        "resumed table differs"
+    );
+    for d in [killed, full] {
+        std::fs::remove_dir_all(d).unwrap();
+    }
+}
