@@ -152,21 +152,36 @@ fn casing_model(source: &CasingSource) -> Result<ResolvedCasing> {
 }
 
 /// Meridian of a rigid casing: the blade-tip contact rows `(r, z)` (leading → trailing edge)
-/// moved by `clearance` (m) along the meridian normal pointing away from the hub.
+/// moved by `clearance` (m) along the meridian normal on the shroud side, taken as the side
+/// the normals point to on average radially outward (the tip of an axial blade faces +r; a
+/// centrifugal tip turns from +r at the inlet to axial at the outlet).
 pub fn rigid_meridian(tip_rz: &[[f64; 2]], clearance: f64) -> Vec<[f64; 2]> {
     let n = tip_rz.len();
-    (0..n)
+    let normals: Vec<[f64; 2]> = (0..n)
         .map(|i| {
             let (a, b) = (tip_rz[i.saturating_sub(1)], tip_rz[(i + 1).min(n - 1)]);
             let (dr, dz) = (b[0] - a[0], b[1] - a[1]);
             let len = dr.hypot(dz);
-            // Tangent (dr, dz) from leading to trailing edge; (dz, −dr) points to the shroud side.
-            let (nr, nz) = if len > 0.0 {
-                (dz / len, -dr / len)
+            if len > 0.0 {
+                [dz / len, -dr / len]
             } else {
-                (1.0, 0.0)
-            };
-            [tip_rz[i][0] + clearance * nr, tip_rz[i][1] + clearance * nz]
+                [1.0, 0.0]
+            }
+        })
+        .collect();
+    let side = if normals.iter().map(|n| n[0]).sum::<f64>() < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    tip_rz
+        .iter()
+        .zip(&normals)
+        .map(|(p, nrm)| {
+            [
+                p[0] + side * clearance * nrm[0],
+                p[1] + side * clearance * nrm[1],
+            ]
         })
         .collect()
 }
@@ -296,9 +311,12 @@ impl ModelSimulator {
                 let rigid = RigidCasing {
                     n_sectors: extras.rigid_stations.unwrap_or(120),
                     meridian: rigid_meridian(&tip_rows(&self.impeller), clearance + e_abr),
+                    // The lobes are phased so that the blades start where the clearance is
+                    // widest (r = r₀ + a cos nθ): contact then builds up as they turn instead of
+                    // starting with an overlap that the first correction would kick out.
                     shape: RigidShape::Lobes {
                         lobes: *lobes,
-                        amplitude: *amplitude,
+                        amplitude: -*amplitude,
                     },
                 };
                 (CasingModel::Rigid(rigid), vec![], None)
@@ -451,8 +469,11 @@ mod tests {
         }
         // Radial tip at the outlet of a centrifugal wheel (r increasing at constant z): the
         // shroud is on the −z side.
-        let m = rigid_meridian(&[[0.10, 0.05], [0.11, 0.05]], 1e-3);
-        assert!((m[1][1] - 0.049).abs() < 1e-15 && (m[1][0] - 0.11).abs() < 1e-15);
+        let m = rigid_meridian(&[[0.09, 0.0], [0.10, 0.05], [0.11, 0.05]], 1e-3);
+        assert!((m[2][1] - 0.049).abs() < 1e-15 && (m[2][0] - 0.11).abs() < 1e-15);
+        // The same axial tip described trailing edge first still gets its casing outside.
+        let m = rigid_meridian(&[[0.1, 0.02], [0.1, 0.01], [0.1, 0.0]], 1e-3);
+        assert!(m.iter().all(|p| (p[0] - 0.101).abs() < 1e-15));
     }
 
     #[test]
