@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::model::fe::{FeError, assemble_sector};
-use crate::model::mesh::{CasingGeometry, ImpellerGeometry, MeshError};
+use crate::model::mesh::{CasingGeometry, ImpellerGeometry, MeshError, SectorMesh};
 use crate::model::reduction::{ReductionError, ReductionOptions, reduce_cyclic};
 use crate::model::rom::{Component, CyclicRom, Damping};
 
@@ -95,47 +95,63 @@ impl ModelSpec {
     }
 }
 
-fn check_modes(component: &'static str, n: usize) -> Result<(), BuildError> {
-    if n == 0 {
+/// Assembles and reduces one built-in component: the shared tail of [`build_casing`] and
+/// [`build_impeller`]; `spec` is recorded as the ROM's provenance.
+fn reduce_built_in(
+    component: Component,
+    mesh: Result<SectorMesh, MeshError>,
+    modes_per_diameter: usize,
+    omega_grid: Vec<f64>,
+    damping: Damping,
+    spec: &impl Serialize,
+) -> Result<CyclicRom, BuildError> {
+    let (label, rotating) = match component {
+        Component::Casing => ("casing", false),
+        Component::Impeller => ("impeller", true),
+    };
+    if modes_per_diameter == 0 {
         return Err(BuildError::Invalid(format!(
-            "{component}.modes_per_diameter must be at least 1"
+            "{label}.modes_per_diameter must be at least 1"
         )));
     }
-    Ok(())
-}
-
-/// Builds the casing ROM: mesh, FE assembly, cyclic Craig–Bampton.
-pub fn build_casing(spec: &CasingSpec) -> Result<CyclicRom, BuildError> {
-    const C: &str = "casing";
-    check_modes(C, spec.modes_per_diameter)?;
-    let mesh = spec.geometry.build().map_err(|source| BuildError::Mesh {
-        component: C,
+    let mesh = mesh.map_err(|source| BuildError::Mesh {
+        component: label,
         source,
     })?;
-    let mats = assemble_sector(&mesh, false).map_err(|source| BuildError::Fe {
-        component: C,
+    let mats = assemble_sector(&mesh, rotating).map_err(|source| BuildError::Fe {
+        component: label,
         source,
     })?;
     let opts = ReductionOptions {
-        modes_per_diameter: spec.modes_per_diameter,
-        omega_grid: vec![0.0],
-        component: Component::Casing,
-        name: "built-in casing".into(),
-        damping: spec.damping,
+        modes_per_diameter,
+        omega_grid,
+        component,
+        name: format!("built-in {label}"),
+        damping,
         ..ReductionOptions::default()
     };
     let mut rom = reduce_cyclic(&mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
-        component: C,
+        component: label,
         source,
     })?;
     rom.provenance = serde_json::json!({ "builtin": spec, "rubscan": env!("CARGO_PKG_VERSION") });
     Ok(rom)
 }
 
+/// Builds the casing ROM: mesh, FE assembly, cyclic Craig–Bampton.
+pub fn build_casing(spec: &CasingSpec) -> Result<CyclicRom, BuildError> {
+    reduce_built_in(
+        Component::Casing,
+        spec.geometry.build(),
+        spec.modes_per_diameter,
+        vec![0.0],
+        spec.damping,
+        spec,
+    )
+}
+
 /// Builds the impeller ROM with centrifugal stiffening `K(Ω) = K0 + Ω² K1`.
 pub fn build_impeller(spec: &ImpellerSpec) -> Result<CyclicRom, BuildError> {
-    const C: &str = "impeller";
-    check_modes(C, spec.modes_per_diameter)?;
     if spec
         .omega_grid_rad_s
         .iter()
@@ -145,28 +161,15 @@ pub fn build_impeller(spec: &ImpellerSpec) -> Result<CyclicRom, BuildError> {
             "impeller.omega_grid_rad_s: speeds must be finite and ≥ 0".into(),
         ));
     }
-    let mesh = spec.geometry.build().map_err(|source| BuildError::Mesh {
-        component: C,
-        source,
-    })?;
-    let mats = assemble_sector(&mesh, true).map_err(|source| BuildError::Fe {
-        component: C,
-        source,
-    })?;
-    let opts = ReductionOptions {
-        modes_per_diameter: spec.modes_per_diameter,
-        omega_grid: spec.omega_grid_rad_s.clone(),
-        component: Component::Impeller,
-        name: "built-in impeller".into(),
-        damping: spec.damping,
-        ..ReductionOptions::default()
-    };
-    let mut rom = reduce_cyclic(&mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
-        component: C,
-        source,
-    })?;
-    rom.provenance = serde_json::json!({ "builtin": spec, "rubscan": env!("CARGO_PKG_VERSION") });
-    Ok(rom)
+    let grid = spec.omega_grid_rad_s.clone();
+    reduce_built_in(
+        Component::Impeller,
+        spec.geometry.build(),
+        spec.modes_per_diameter,
+        grid,
+        spec.damping,
+        spec,
+    )
 }
 
 #[cfg(test)]
