@@ -656,11 +656,23 @@ pub fn import_calculix(spec: &CalculixImportSpec) -> Result<CyclicRom, ImportErr
         damping: spec.damping,
         ..Default::default()
     };
-    let mut rom = reduce_component(&mats, &contacts, &opts)?;
+    reduce_imported("calculix", serde_json::json!(spec), &mats, &contacts, &opts)
+}
+
+/// Reduces imported matrices (Craig–Bampton, fixed interface at the contact nodes) and records
+/// the import in the ROM's provenance; shared by the CalculiX and Matrix Market importers.
+pub(crate) fn reduce_imported(
+    format: &str,
+    spec: serde_json::Value,
+    mats: &ComponentMatrices,
+    contacts: &[ContactPoint],
+    opts: &ComponentReductionOptions,
+) -> Result<CyclicRom, ImportError> {
+    let mut rom = reduce_component(mats, contacts, opts)?;
     rom.provenance = serde_json::json!({
-        "import": "calculix",
+        "import": format,
         "spec": spec,
-        "n_fe_dofs": n,
+        "n_fe_dofs": mats.dofs.len(),
         "contact_node_ids": contacts.iter().map(|c| c.node).collect::<Vec<_>>(),
         "reduction": "Craig-Bampton, fixed interface at the contact nodes",
     });

@@ -15,10 +15,10 @@
 
 use crate::io::calculix::{
     ContactSelection, ImportError, LineReader, TriangleBuilder, Units, check_contact_dofs,
-    contact_points, parse_index, parse_value, read_calculix_mesh,
+    contact_points, parse_index, parse_value, read_calculix_mesh, reduce_imported,
 };
 use crate::model::component::{
-    ComponentMatrices, ComponentReductionOptions, NodeDof, reduce_component, sparse_from_entries,
+    ComponentMatrices, ComponentReductionOptions, NodeDof, sparse_from_entries,
 };
 use crate::model::rom::{Component, CyclicRom, Damping};
 use faer::sparse::SparseColMat;
@@ -309,16 +309,13 @@ pub fn import_matrix_market(spec: &MatrixMarketImportSpec) -> Result<CyclicRom, 
         damping: spec.damping,
         ..Default::default()
     };
-    let mut rom = reduce_component(&mats, &contacts, &opts)?;
-    rom.provenance = serde_json::json!({
-        "import": "matrix_market",
-        "spec": spec,
-        "n_fe_dofs": n,
-        "contact_node_ids": contacts.iter().map(|c| c.node).collect::<Vec<_>>(),
-        "reduction": "Craig-Bampton, fixed interface at the contact nodes",
-    });
-    rom.validate()?;
-    Ok(rom)
+    reduce_imported(
+        "matrix_market",
+        serde_json::json!(spec),
+        &mats,
+        &contacts,
+        &opts,
+    )
 }
 
 #[cfg(test)]
