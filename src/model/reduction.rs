@@ -751,6 +751,44 @@ mod tests {
     }
 
     #[test]
+    fn casing_mesh_convergence_of_the_first_frequencies() {
+        use crate::model::fe::assemble_sector;
+        use crate::model::mesh::CasingGeometry;
+        // Nodal diameters 2–4 hold the casing's lowest frequencies; refine along the meridian
+        // and around the sector together.
+        let mut rows = vec![];
+        for (meridian, around) in [(4, 1), (8, 1), (16, 2)] {
+            let g = CasingGeometry {
+                n_sectors: 100,
+                elements_meridian: meridian,
+                elements_circumferential: around,
+                ..CasingGeometry::default()
+            };
+            let mesh = g.build().unwrap();
+            let s = built_in(&mesh, &assemble_sector(&mesh, false).unwrap());
+            let f: Vec<f64> = (2..=4)
+                .map(|k| signed_hz(unreduced(&s, k, 0.0)[0]))
+                .collect();
+            println!(
+                "casing mesh {meridian} × {around}: {} DOFs per sector, first frequency at k = 2, 3, 4: {f:.1?} Hz",
+                mesh.n_dofs()
+            );
+            rows.push(f);
+        }
+        for k in 0..3 {
+            let (d1, d2) = (
+                (rows[1][k] - rows[0][k]).abs(),
+                (rows[2][k] - rows[1][k]).abs(),
+            );
+            assert!(
+                d2 < d1,
+                "nodal diameter {}: differences {d1} then {d2} Hz do not shrink",
+                k + 2
+            );
+        }
+    }
+
+    #[test]
     fn centrifugal_rom_matches_prestressed_sector() {
         let s = truss_sector(8, true);
         let rom = reduce_sector_model(&model(&s), &opts(10)).unwrap();
