@@ -775,11 +775,8 @@ mod tests {
             );
             rows.push(f);
         }
-        for k in 0..3 {
-            let (d1, d2) = (
-                (rows[1][k] - rows[0][k]).abs(),
-                (rows[2][k] - rows[1][k]).abs(),
-            );
+        for (k, ((a, b), c)) in rows[0].iter().zip(&rows[1]).zip(&rows[2]).enumerate() {
+            let (d1, d2) = ((b - a).abs(), (c - b).abs());
             assert!(
                 d2 < d1,
                 "nodal diameter {}: differences {d1} then {d2} Hz do not shrink",
