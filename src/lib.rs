@@ -6,7 +6,9 @@
 //! - [`dynamics`]: explicit time integration with Lagrange-multiplier contact, friction, abradable coating;
 //! - [`analysis`]: spectra, linear interaction criterion, strain energy per nodal diameter;
 //! - [`sweep`]: sweep specification, planner, runner;
-//! - [`io`]: ROM files, Parquet tables, plots (the only modules that touch the file system).
+//! - [`io`]: ROM files and cache, FE model readers, Parquet tables, plots (the only modules that
+//!   touch the file system);
+//! - [`app`]: each `rubscan` subcommand as a library call (the binary only parses arguments).
 //!
 //! Units are SI everywhere inside (m, kg, s, N, Pa, rad/s).
 

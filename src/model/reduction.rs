@@ -550,9 +550,6 @@ fn subspace_iteration(
             }
         }
     }
-    if std::env::var_os("RUBSCAN_CB_TRACE").is_some() {
-        eprintln!("k = {kd}: subspace iteration: {iterations} iterations, residual {residual:.2e}");
-    }
     if residual.is_nan() || residual >= 1e-6 {
         return Err(ReductionError::NoConvergence {
             k: kd,
