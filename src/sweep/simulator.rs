@@ -110,7 +110,11 @@ const DEFAULT_RIGID_CLEARANCE: f64 = 0.5e-3;
 #[derive(Clone, Debug)]
 enum ResolvedCasing {
     Flexible(CyclicRom),
-    Rigid { lobes: usize, amplitude: f64 },
+    Rigid {
+        lobes: usize,
+        amplitude: f64,
+        offsets: Option<Vec<f64>>,
+    },
 }
 
 /// A [`JobSimulator`] running the flexible-casing contact simulation of [`crate::dynamics`].
@@ -147,6 +151,7 @@ fn casing_model(source: &CasingSource) -> Result<ResolvedCasing> {
         CasingSource::Rigid(r) => ResolvedCasing::Rigid {
             lobes: r.lobes as usize,
             amplitude: r.amplitude_m,
+            offsets: r.gap_offsets_m.clone(),
         },
     })
 }
@@ -184,6 +189,44 @@ pub fn rigid_meridian(tip_rz: &[[f64; 2]], clearance: f64) -> Vec<[f64; 2]> {
             ]
         })
         .collect()
+}
+
+/// A rigid casing on `meridian`: n lobes of amplitude a (m), phased so that the blades start
+/// where the clearance is widest (r = r₀ + a cos nθ: contact then builds up as they turn
+/// instead of starting with an overlap that the first correction would kick out), plus an
+/// optional tabulated gap offset Δr(θ_i) (m) whose length sets the number of stations.
+pub fn rigid_casing(
+    lobes: usize,
+    amplitude: f64,
+    offsets: Option<&[f64]>,
+    stations: Option<usize>,
+    meridian: Vec<[f64; 2]>,
+) -> RigidCasing {
+    match offsets {
+        None => RigidCasing {
+            n_sectors: stations.unwrap_or(120),
+            meridian,
+            shape: RigidShape::Lobes {
+                lobes,
+                amplitude: -amplitude,
+            },
+        },
+        Some(o) => {
+            let n = o.len() as f64;
+            let offsets = o
+                .iter()
+                .enumerate()
+                .map(|(i, d)| {
+                    d + amplitude * (lobes as f64 * 2.0 * std::f64::consts::PI * i as f64 / n).cos()
+                })
+                .collect();
+            RigidCasing {
+                n_sectors: o.len(),
+                meridian,
+                shape: RigidShape::Tabulated { offsets },
+            }
+        }
+    }
 }
 
 /// `(r, z)` of the impeller's contact nodes, one per contact row, in row order.
@@ -306,19 +349,20 @@ impl ModelSimulator {
                 };
                 (CasingModel::Flexible(rom.clone()), offset, load)
             }
-            ResolvedCasing::Rigid { lobes, amplitude } => {
+            ResolvedCasing::Rigid {
+                lobes,
+                amplitude,
+                offsets,
+            } => {
                 let clearance = p.clearance_m.unwrap_or(DEFAULT_RIGID_CLEARANCE);
-                let rigid = RigidCasing {
-                    n_sectors: extras.rigid_stations.unwrap_or(120),
-                    meridian: rigid_meridian(&tip_rows(&self.impeller), clearance + e_abr),
-                    // The lobes are phased so that the blades start where the clearance is
-                    // widest (r = r₀ + a cos nθ): contact then builds up as they turn instead of
-                    // starting with an overlap that the first correction would kick out.
-                    shape: RigidShape::Lobes {
-                        lobes: *lobes,
-                        amplitude: -*amplitude,
-                    },
-                };
+                let meridian = rigid_meridian(&tip_rows(&self.impeller), clearance + e_abr);
+                let rigid = rigid_casing(
+                    *lobes,
+                    *amplitude,
+                    offsets.as_deref(),
+                    extras.rigid_stations,
+                    meridian,
+                );
                 (CasingModel::Rigid(rigid), vec![], None)
             }
         };
@@ -474,6 +518,37 @@ mod tests {
         // The same axial tip described trailing edge first still gets its casing outside.
         let m = rigid_meridian(&[[0.1, 0.02], [0.1, 0.01], [0.1, 0.0]], 1e-3);
         assert!(m.iter().all(|p| (p[0] - 0.101).abs() < 1e-15));
+    }
+
+    #[test]
+    fn tabulated_gap_reproduces_the_lobed_casing() {
+        let meridian = vec![[0.1, 0.0], [0.1, 0.02]];
+        let lobed = rigid_casing(2, 3e-4, None, Some(60), meridian.clone());
+        // The same two lobes given as a tabulated gap function (amplitude 0) …
+        let table: Vec<f64> = (0..60)
+            .map(|i| 3e-4 * (2.0 * 2.0 * std::f64::consts::PI * i as f64 / 60.0).cos())
+            .collect();
+        let tabulated = rigid_casing(2, 0.0, Some(&table), None, meridian.clone());
+        let (a, b) = (
+            lobed.data_points().unwrap(),
+            tabulated.data_points().unwrap(),
+        );
+        assert_eq!(a.len(), b.len());
+        for (p, q) in a.iter().zip(&b) {
+            assert!((p - q).norm() < 1e-15, "{p} vs {q}");
+        }
+        // … and the blades start in the widest clearance (θ = 0 is a valley of the casing).
+        assert!((a[0].norm() - (0.1 + 3e-4)).abs() < 1e-15);
+        // A constant offset widens the gap everywhere.
+        let wider = rigid_casing(2, 0.0, Some(&[1e-4; 8]), None, meridian);
+        assert!(
+            wider
+                .data_points()
+                .unwrap()
+                .iter()
+                .step_by(2)
+                .all(|p| (p.xy().norm() - 0.1001).abs() < 1e-15)
+        );
     }
 
     #[test]

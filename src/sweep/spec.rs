@@ -167,6 +167,11 @@ pub struct RigidCasing {
     pub lobes: u32,
     /// Distortion amplitude a (m), ≥ 0.
     pub amplitude_m: f64,
+    /// Tabulated gap function: radius offset Δr(θ_i) (m, positive = larger clearance) at
+    /// N ≥ 3 equally spaced angles θ_i = 2πi/N, added to the lobes (amplitude 0 for a purely
+    /// tabulated casing); N becomes the casing spline's circumferential resolution.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_offsets_m: Option<Vec<f64>>,
 }
 
 /// Loading scenario. `duration_s` and `lobes` are typed; every other field is
@@ -505,6 +510,14 @@ impl SweepSpec {
                         path: "/models/casing/rigid/amplitude_m".into(),
                         reason: format!("{} must be finite and ≥ 0", r.amplitude_m),
                     });
+                }
+                if let Some(o) = &r.gap_offsets_m {
+                    if o.len() < 3 || o.iter().any(|v| !v.is_finite()) {
+                        issues.push(SpecIssue {
+                            path: "/models/casing/rigid/gap_offsets_m".into(),
+                            reason: format!("needs at least 3 finite values, got {}", o.len()),
+                        });
+                    }
                 }
             }
             _ => {}
