@@ -511,13 +511,13 @@ impl SweepSpec {
                         reason: format!("{} must be finite and ≥ 0", r.amplitude_m),
                     });
                 }
-                if let Some(o) = &r.gap_offsets_m {
-                    if o.len() < 3 || o.iter().any(|v| !v.is_finite()) {
-                        issues.push(SpecIssue {
-                            path: "/models/casing/rigid/gap_offsets_m".into(),
-                            reason: format!("needs at least 3 finite values, got {}", o.len()),
-                        });
-                    }
+                if let Some(o) = &r.gap_offsets_m
+                    && (o.len() < 3 || o.iter().any(|v| !v.is_finite()))
+                {
+                    issues.push(SpecIssue {
+                        path: "/models/casing/rigid/gap_offsets_m".into(),
+                        reason: format!("needs at least 3 finite values, got {}", o.len()),
+                    });
                 }
             }
             _ => {}
