@@ -632,7 +632,6 @@ pub(crate) fn check_contact_dofs(
 /// see [`crate::model::component`] for the centrifugal hook).
 pub fn import_calculix(spec: &CalculixImportSpec) -> Result<CyclicRom, ImportError> {
     let dofs = read_dof_map(&spec.dof_map)?;
-    let n = dofs.len();
     let mesh = read_calculix_mesh(&spec.mesh)?;
     let contacts = contact_points(
         &spec.contact,
@@ -642,32 +641,67 @@ pub fn import_calculix(spec: &CalculixImportSpec) -> Result<CyclicRom, ImportErr
         spec.units.length_factor(),
     )?;
     check_contact_dofs(&contacts, &dofs, &spec.dof_map)?;
-    let stiffness = read_matrix_storage(&spec.stiffness, n, spec.units.stiffness_factor())?;
-    let mass = read_matrix_storage(&spec.mass, n, spec.units.mass_factor())?;
+    let common = ImportCommon {
+        name: &spec.name,
+        component: spec.component,
+        stiffness: &spec.stiffness,
+        mass: &spec.mass,
+        n_modes: spec.n_modes,
+        units: spec.units,
+        damping: spec.damping,
+    };
+    reduce_imported(
+        "calculix",
+        serde_json::json!(spec),
+        &common,
+        dofs,
+        &contacts,
+        read_matrix_storage,
+    )
+}
+
+/// Reads an `n × n` matrix file, multiplying every value by the unit factor.
+pub(crate) type MatrixReader =
+    fn(&Path, usize, f64) -> Result<SparseColMat<usize, f64>, ImportError>;
+
+/// The fields both import specs (CalculiX, Matrix Market) share.
+pub(crate) struct ImportCommon<'a> {
+    pub name: &'a str,
+    pub component: Component,
+    pub stiffness: &'a Path,
+    pub mass: &'a Path,
+    pub n_modes: usize,
+    pub units: Units,
+    pub damping: Damping,
+}
+
+/// Reads the stiffness and mass with `read` (SI conversion from `common.units`), reduces them
+/// (Craig–Bampton, fixed interface at the contact nodes) and records the import in the ROM's
+/// provenance; shared by the CalculiX and Matrix Market importers.
+pub(crate) fn reduce_imported(
+    format: &str,
+    spec: serde_json::Value,
+    common: &ImportCommon<'_>,
+    dofs: Vec<NodeDof>,
+    contacts: &[ContactPoint],
+    read: MatrixReader,
+) -> Result<CyclicRom, ImportError> {
+    let n = dofs.len();
+    let stiffness = read(common.stiffness, n, common.units.stiffness_factor())?;
+    let mass = read(common.mass, n, common.units.mass_factor())?;
     let mats = ComponentMatrices {
         stiffness,
         mass,
         dofs,
     };
     let opts = ComponentReductionOptions {
-        name: spec.name.clone(),
-        component: spec.component,
-        n_modes: spec.n_modes,
-        damping: spec.damping,
+        name: common.name.to_string(),
+        component: common.component,
+        n_modes: common.n_modes,
+        damping: common.damping,
         ..Default::default()
     };
-    reduce_imported("calculix", serde_json::json!(spec), &mats, &contacts, &opts)
-}
-
-/// Reduces imported matrices (Craig–Bampton, fixed interface at the contact nodes) and records
-/// the import in the ROM's provenance; shared by the CalculiX and Matrix Market importers.
-pub(crate) fn reduce_imported(
-    format: &str,
-    spec: serde_json::Value,
-    mats: &ComponentMatrices,
-    contacts: &[ContactPoint],
-    opts: &ComponentReductionOptions,
-) -> Result<CyclicRom, ImportError> {
+    let (mats, opts) = (&mats, &opts);
     let mut rom = reduce_component(mats, contacts, opts)?;
     rom.provenance = serde_json::json!({
         "import": format,

@@ -14,12 +14,11 @@
 //!   table `id x y z` per line (whitespace or comma separated, `#`/`%` comments).
 
 use crate::io::calculix::{
-    ContactSelection, ImportError, LineReader, TriangleBuilder, Units, check_contact_dofs,
-    contact_points, parse_index, parse_value, read_calculix_mesh, reduce_imported,
+    ContactSelection, ImportCommon, ImportError, LineReader, TriangleBuilder, Units,
+    check_contact_dofs, contact_points, parse_index, parse_value, read_calculix_mesh,
+    reduce_imported,
 };
-use crate::model::component::{
-    ComponentMatrices, ComponentReductionOptions, NodeDof, sparse_from_entries,
-};
+use crate::model::component::{NodeDof, sparse_from_entries};
 use crate::model::rom::{Component, CyclicRom, Damping};
 use faer::sparse::SparseColMat;
 use serde::{Deserialize, Serialize};
@@ -272,7 +271,6 @@ pub struct MatrixMarketImportSpec {
 /// rest; see [`crate::io::calculix::import_calculix`] for the same on CalculiX files).
 pub fn import_matrix_market(spec: &MatrixMarketImportSpec) -> Result<CyclicRom, ImportError> {
     let dofs = read_dof_list(&spec.dof_map)?;
-    let n = dofs.len();
     let is_deck = matches!(
         spec.nodes
             .extension()
@@ -295,26 +293,22 @@ pub fn import_matrix_market(spec: &MatrixMarketImportSpec) -> Result<CyclicRom, 
         spec.units.length_factor(),
     )?;
     check_contact_dofs(&contacts, &dofs, &spec.dof_map)?;
-    let stiffness = read_matrix_market(&spec.stiffness, n, spec.units.stiffness_factor())?;
-    let mass = read_matrix_market(&spec.mass, n, spec.units.mass_factor())?;
-    let mats = ComponentMatrices {
-        stiffness,
-        mass,
-        dofs,
-    };
-    let opts = ComponentReductionOptions {
-        name: spec.name.clone(),
+    let common = ImportCommon {
+        name: &spec.name,
         component: spec.component,
+        stiffness: &spec.stiffness,
+        mass: &spec.mass,
         n_modes: spec.n_modes,
+        units: spec.units,
         damping: spec.damping,
-        ..Default::default()
     };
     reduce_imported(
         "matrix_market",
         serde_json::json!(spec),
-        &mats,
+        &common,
+        dofs,
         &contacts,
-        &opts,
+        read_matrix_market,
     )
 }
 

@@ -469,6 +469,20 @@ fn check_count(field: &'static str, v: usize, min: usize) -> Result<(), MeshErro
     Ok(())
 }
 
+/// Contact nodes must be element corners: `elements_meridian` a multiple of `contact_nodes − 1`.
+fn check_contact_spacing(elements_meridian: usize, contact_nodes: usize) -> Result<(), MeshError> {
+    if !elements_meridian.is_multiple_of(contact_nodes - 1) {
+        return Err(bad(
+            "elements_meridian",
+            format!(
+                "{elements_meridian} must be a multiple of contact_nodes − 1 = {} so that contact nodes are element corners",
+                contact_nodes - 1
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn check_len(field: &'static str, v: f64) -> Result<(), MeshError> {
     if !(v.is_finite() && v > 0.0) {
         return Err(bad(field, format!("{v} m must be finite and > 0")));
@@ -484,19 +498,7 @@ impl CasingGeometry {
         self.shroud.validate("shroud")?;
         check_len("thickness", self.thickness)?;
         check_count("elements_meridian", self.elements_meridian, 1)?;
-        if !self
-            .elements_meridian
-            .is_multiple_of(self.contact_nodes - 1)
-        {
-            return Err(bad(
-                "elements_meridian",
-                format!(
-                    "{} must be a multiple of contact_nodes − 1 = {} so that contact nodes are element corners",
-                    self.elements_meridian,
-                    self.contact_nodes - 1
-                ),
-            ));
-        }
+        check_contact_spacing(self.elements_meridian, self.contact_nodes)?;
         check_count("elements_circumferential", self.elements_circumferential, 1)?;
         check_count("elements_thickness", self.elements_thickness, 1)?;
         check_len("inlet_length", self.inlet_length)?;
@@ -685,19 +687,7 @@ impl ImpellerGeometry {
         ] {
             check_count(f, v, 1)?;
         }
-        if !self
-            .elements_meridian
-            .is_multiple_of(self.contact_nodes - 1)
-        {
-            return Err(bad(
-                "elements_meridian",
-                format!(
-                    "{} must be a multiple of contact_nodes − 1 = {} so that contact nodes are element corners",
-                    self.elements_meridian,
-                    self.contact_nodes - 1
-                ),
-            ));
-        }
+        check_contact_spacing(self.elements_meridian, self.contact_nodes)?;
         let kmin = min_radius_of_curvature(&self.shroud);
         if self.tip_clearance >= 0.5 * kmin {
             return Err(bad(
