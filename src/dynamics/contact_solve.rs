@@ -360,7 +360,7 @@ mod tests {
         use crate::model::rom::Component;
         let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 3, 2));
         let st = Structure::new(&rom, 0.0).unwrap();
-        let mut k = ModalKernel::new(&st, 0.2 * st.stability_limit());
+        let mut k = ModalKernel::new(&st, 0.2 * st.stability_limit()).unwrap();
         let spline = CasingSpline::new(8, 3).unwrap();
         let tab = ControlFlexTable::build(&mut k, &spline);
         let params = [

@@ -61,7 +61,7 @@ mod tests {
         let rom = synthetic_rom(&spec);
         let st = Structure::new(&rom, omega).unwrap();
         let h = 0.3 * st.stability_limit();
-        let mut fast = ModalKernel::new(&st, h);
+        let mut fast = ModalKernel::new(&st, h).unwrap();
         let mut dense = DenseKernel::new(&st, h);
         let n = st.n_modal;
         let v0: Vec<f64> = (0..n).map(|i| ((i * 7 % 13) as f64 - 6.0) * 0.01).collect();

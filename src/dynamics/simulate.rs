@@ -234,10 +234,10 @@ pub fn simulate(
     let mut ki: Box<dyn StructureKernel>;
     let mut kc: Option<Box<dyn StructureKernel>> = None;
     if fast {
-        ki = Box::new(ModalKernel::new(&st_i, h));
+        ki = Box::new(ModalKernel::new(&st_i, h)?);
         tab_i = Some(NodeFlexTable::build(ki.as_mut()));
         if let Some(s) = &st_c {
-            let mut k: Box<dyn StructureKernel> = Box::new(ModalKernel::new(s, h));
+            let mut k: Box<dyn StructureKernel> = Box::new(ModalKernel::new(s, h)?);
             tab_c = Some(ControlFlexTable::build(k.as_mut(), &spline));
             kc = Some(k);
         }
@@ -275,7 +275,7 @@ pub fn simulate(
             }
         }
         let mut stat = vec![0.0; ncs * nbc];
-        let mut mk = ModalKernel::new(stc, h);
+        let mut mk = ModalKernel::new(stc, h)?;
         mk.static_boundary(&pat, &mut stat)
             .map_err(SimError::InvalidCase)?;
         let peak = (0..ncs)
