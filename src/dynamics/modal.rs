@@ -98,8 +98,16 @@ impl ModalKernel {
         let mut masses = vec![];
         let nbp = nb.div_ceil(4) * 4;
         for b in &st.blocks {
-            let (modes, omegas, damping) = if b.real {
-                (b.modes.clone(), b.omega.clone(), b.damping_coef.clone())
+            let PairedBasis {
+                modes,
+                omega: omegas,
+                damping,
+            } = if b.real {
+                PairedBasis {
+                    modes: b.modes.clone(),
+                    omega: b.omega.clone(),
+                    damping: b.damping_coef.clone(),
+                }
             } else {
                 paired_modes(b).map_err(|reason| StructureError::Eigen {
                     name: st.name.clone(),
@@ -446,6 +454,15 @@ fn take_spectrum(
     }
 }
 
+/// The re-paired eigenbasis of a complex harmonic (see [`paired_modes`]).
+struct PairedBasis {
+    /// `[v_1 … v_n, Jv_1 … Jv_n]`, M-orthonormal.
+    modes: DMatrix<f64>,
+    /// ω_p (rad/s) and damping coefficient c_p (1/s) of pair p.
+    omega: Vec<f64>,
+    damping: Vec<f64>,
+}
+
 /// Re-pairs the eigenvectors of a complex harmonic's real form.
 ///
 /// The real form `[[A, B], [−B, A]]` of a Hermitian matrix commutes with
@@ -455,7 +472,7 @@ fn take_spectrum(
 /// traffic per step) and gets `Jv_p` by a swap of halves. Eigenvalue clusters are re-orthonormalised
 /// (Gram–Schmidt in the M inner product); the frequency and damping of each pair are its Rayleigh
 /// quotients `vᵀKv`, `vᵀDv`.
-fn paired_modes(b: &NdBlock) -> Result<(DMatrix<f64>, Vec<f64>, Vec<f64>), String> {
+fn paired_modes(b: &NdBlock) -> Result<PairedBasis, String> {
     let (n, dim) = (b.n, b.dim);
     let j_of = |v: &DVector<f64>| {
         let mut w = DVector::zeros(dim);
@@ -510,7 +527,11 @@ fn paired_modes(b: &NdBlock) -> Result<(DMatrix<f64>, Vec<f64>, Vec<f64>), Strin
         om.push(v.dot(&(&b.stiffness * v)).max(0.0).sqrt());
         damp.push(v.dot(&(&b.damping * v)));
     }
-    Ok((modes, om, damp))
+    Ok(PairedBasis {
+        modes,
+        omega: om,
+        damping: damp,
+    })
 }
 
 #[derive(Clone, Copy)]
@@ -741,7 +762,11 @@ mod gemv_tests {
         let st = Structure::new(&rom, 800.0).unwrap();
         let mut checked = 0;
         for b in st.blocks.iter().filter(|b| !b.real) {
-            let (v, om, damp) = paired_modes(b).unwrap();
+            let PairedBasis {
+                modes: v,
+                omega: om,
+                damping: damp,
+            } = paired_modes(b).unwrap();
             let n = b.n;
             let id = v.transpose() * &b.mass * &v;
             let kd = v.transpose() * &b.stiffness * &v;
