@@ -8,6 +8,8 @@
 //! Boundary vectors are *sector-major*: entry `s·3n_c + 3j + d` is DOF `d` (x, y, z of the
 //! sector-local frame) of contact node `j` of sector `s`.
 
+use crate::contact::CasingSpline;
+
 /// Kinetic and strain energy of a structure (J), at the half step `n − ½` in the form that
 /// central differences conserve exactly in undamped free flight:
 /// `T = ½ v̄ᵀ M v̄`, `v̄ = (u_n − u_{n−1})/h`, and `V = ½ u_nᵀ K u_{n−1}`.
@@ -46,6 +48,18 @@ pub trait StructureKernel {
     fn nd_strain_energy(&self, out: &mut [f64]);
     /// Whether every state entry is finite.
     fn is_finite(&self) -> bool;
+    /// Makes the per-step channels ([`StructureKernel::boundary`], `correct`, `response`) the
+    /// control points of `spline` instead of the contact nodes, when the kernel can (see
+    /// [`crate::dynamics::modal::ModalKernel::fold_spline`]); `Ok(false)`: it keeps the nodes.
+    fn map_to_surface(&mut self, spline: &CasingSpline) -> Result<bool, String> {
+        let _ = spline;
+        Ok(false)
+    }
+    /// Contact-node displacements (m, sector-major) of `u_n` (after
+    /// [`StructureKernel::advance`]), whatever the per-step channels are.
+    fn node_displacements(&mut self, out: &mut [f64]) {
+        out.copy_from_slice(self.boundary());
+    }
 }
 
 #[cfg(test)]

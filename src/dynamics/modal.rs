@@ -16,6 +16,7 @@
 //! predicted boundary, then one inverse real DFT per boundary channel. So a contact step reads
 //! each Φ_b,k from memory twice (predict, correct) instead of three times.
 
+use crate::contact::CasingSpline;
 use crate::dynamics::kernel::{Energies, StructureKernel};
 use crate::dynamics::structure::{NdBlock, Structure, StructureError};
 use nalgebra::{DMatrix, DVector};
@@ -36,7 +37,22 @@ struct Block {
     /// `[v_a; v_b]` for a complex harmonic, `v_a` for a real one, each part padded with zero
     /// rows to `nbp` (a multiple of the SIMD width). The partner columns `J v` are implicit.
     phib: Vec<f64>,
+    /// The same columns mapped to the per-step channels when they differ from the contact
+    /// nodes (see [`ModalKernel::fold_spline`]); empty otherwise.
+    chan: Vec<f64>,
     rows: usize,
+}
+
+impl Block {
+    /// The basis of the per-step channels (predict, correct, response).
+    #[inline]
+    fn step_basis(&self) -> &[f64] {
+        if self.chan.is_empty() {
+            &self.phib
+        } else {
+            &self.chan
+        }
+    }
 }
 
 /// The fast modal/FFT kernel of one structure.
@@ -141,6 +157,7 @@ impl ModalKernel {
                 real: b.real,
                 w: st.dft_weight(b.k),
                 phib,
+                chan: Vec::new(),
                 rows,
             });
             phys_modal.push(st.physical_modal_offset(b.k));
@@ -216,13 +233,15 @@ impl ModalKernel {
         &self.eta
     }
 
-    /// Boundary displacements (sector-major) of modal coordinates `eta` into `out` (or into
-    /// `ub` with `out_is_ub`, keeping the spectrum in `spec_state` for the next correction).
+    /// Contact-node displacements (sector-major) of modal coordinates `which` into `out`, or the
+    /// per-step channels into `ub` with `out_is_ub` (keeping the spectrum in `spec_state` for the
+    /// next correction).
     fn boundary_of(&mut self, which: Which, out_is_ub: bool, out: &mut [f64]) {
         let nspec = self.ns / 2 + 1;
         let nb = self.nb;
         let eta: &[f64] = match which {
             Which::Next => &self.eta_next,
+            Which::Current => &self.eta,
             Which::Tmp => &self.tmp_eta,
         };
         let spec = if out_is_ub {
@@ -233,7 +252,8 @@ impl ModalKernel {
         for (k, b) in self.blocks.iter().enumerate() {
             let xb = &mut self.xb[..b.rows];
             let yb = &mut self.yb[..b.rows];
-            expand(b, &eta[b.offset..b.offset + b.dim], xb, yb);
+            let basis = if out_is_ub { b.step_basis() } else { &b.phib };
+            expand(b, basis, &eta[b.offset..b.offset + b.dim], xb, yb);
             put_spectrum(b, self.nbp, nb, nspec, k, xb, spec, false);
         }
         if out_is_ub {
@@ -299,7 +319,7 @@ impl ModalKernel {
             let yb = &mut self.yb[..b.rows];
             take_spectrum(b, self.nbp, nb, nspec, k, &self.fspec, xb);
             let deta = &mut self.deta[..b.dim];
-            project(b, xb, yb, deta);
+            project(b, b.step_basis(), xb, yb, deta);
             for (d, c) in deta.iter_mut().zip(&self.c3[b.offset..b.offset + b.dim]) {
                 *d *= c;
             }
@@ -316,7 +336,7 @@ impl ModalKernel {
             } else {
                 &mut self.spec
             };
-            expand(b, deta, xb, yb);
+            expand(b, b.step_basis(), deta, xb, yb);
             put_spectrum(b, self.nbp, nb, nspec, k, xb, spec, state);
         }
     }
@@ -328,6 +348,7 @@ impl ModalKernel {
         self.forces_to_spectrum(forces);
         let eta: &mut [f64] = match dst {
             Which::Next => &mut self.eta_next,
+            Which::Current => &mut self.eta,
             Which::Tmp => &mut self.tmp_eta,
         };
         for (k, b) in self.blocks.iter().enumerate() {
@@ -335,11 +356,58 @@ impl ModalKernel {
             let yb = &mut self.yb[..b.rows];
             take_spectrum(b, self.nbp, nb, nspec, k, &self.fspec, xb);
             let g = &mut self.deta[..b.dim];
-            project(b, xb, yb, g);
+            project(b, &b.phib, xb, yb, g);
             for p in 0..b.dim {
                 eta[b.offset + p] += self.c3[b.offset + p] * g[p];
             }
         }
+    }
+
+    /// Folds the casing spline into the kernel (eq. 13 per nodal diameter): the per-step
+    /// channels become the control points `Q[c][k]`, rows `k = 1..=M`, of each column class
+    /// `cl = c − 1` in the frame rotated by `cl·α` (the ghost rows and wrap columns follow
+    /// from eqs. 10–11), and [`StructureKernel::correct`] takes forces on those control
+    /// points. `B` is rotation-equivariant, so in sector-local frames it is block circulant
+    /// over sectors and acts per nodal diameter as one `3M × 3M` complex matrix `Ĥ_k`; the
+    /// stored bases become `Ĥ_k Φ_b,k`. A step then costs what a contact-node step costs and
+    /// the global spline solve disappears. Requires `3M` boundary DOFs per sector.
+    pub fn fold_spline(&mut self, spline: &CasingSpline) -> Result<(), String> {
+        let (ns, nb) = (self.ns, self.nb);
+        let m = spline.nodes_per_sector();
+        if spline.n_sectors() != ns || 3 * m != nb {
+            return Err(format!(
+                "spline of {} × {} nodes does not match a kernel of {ns} sectors × {nb} boundary DOFs",
+                spline.n_sectors(),
+                m
+            ));
+        }
+        let hk = surface_harmonics(spline).map_err(|e| e.to_string())?;
+        let nbp = self.nbp;
+        for (k, b) in self.blocks.iter_mut().enumerate() {
+            let h = &hk[k];
+            let mut chan = vec![0.0; b.phib.len()];
+            for p in 0..b.n {
+                let col = &b.phib[p * b.rows..(p + 1) * b.rows];
+                let out = &mut chan[p * b.rows..(p + 1) * b.rows];
+                for r in 0..nb {
+                    let mut z = Complex64::new(0.0, 0.0);
+                    for c in 0..nb {
+                        let v = if b.real {
+                            Complex64::new(col[c], 0.0)
+                        } else {
+                            Complex64::new(col[c], -col[nbp + c])
+                        };
+                        z += h[(r, c)] * v;
+                    }
+                    out[r] = z.re;
+                    if !b.real {
+                        out[nbp + r] = -z.im;
+                    }
+                }
+            }
+            b.chan = chan;
+        }
+        Ok(())
     }
 
     /// Modal coordinates `Φᵀ M x` of a physical vector (assembled ordering): harmonic transform
@@ -370,18 +438,18 @@ impl ModalKernel {
     }
 }
 
-/// Boundary rows `x = Φ_b η` of one harmonic from the stored half basis: `x = V η₁ + J V η₂`
+/// Boundary rows `x = Φ_b η` of one harmonic from the stored half basis `basis`: `x = V η₁ + J V η₂`
 /// with `J [a; b] = [−b; a]` (complex harmonic, `η = [η₁; η₂]`), or `x = V η` (real harmonic).
 /// `y` is a work buffer of the same length as `x`.
 #[inline]
-fn expand(b: &Block, eta: &[f64], x: &mut [f64], y: &mut [f64]) {
+fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
     x.iter_mut().for_each(|v| *v = 0.0);
-    gemv(&b.phib, b.rows, &eta[..b.n], x);
+    gemv(basis, b.rows, &eta[..b.n], x);
     if b.real {
         return;
     }
     y.iter_mut().for_each(|v| *v = 0.0);
-    gemv(&b.phib, b.rows, &eta[b.n..2 * b.n], y);
+    gemv(basis, b.rows, &eta[b.n..2 * b.n], y);
     let h = b.rows / 2;
     let (xa, xb) = x.split_at_mut(h);
     let (ya, yb) = y.split_at_mut(h);
@@ -394,8 +462,8 @@ fn expand(b: &Block, eta: &[f64], x: &mut [f64], y: &mut [f64]) {
 /// Modal projection `g = Φ_bᵀ x` of one harmonic's boundary rows: `g₁ = Vᵀ x` and
 /// `g₂ = (J V)ᵀ x = Vᵀ [x_b; −x_a]`. `y` is a work buffer of the same length as `x`.
 #[inline]
-fn project(b: &Block, x: &[f64], y: &mut [f64], g: &mut [f64]) {
-    gemv_t(&b.phib, b.rows, x, &mut g[..b.n]);
+fn project(b: &Block, basis: &[f64], x: &[f64], y: &mut [f64], g: &mut [f64]) {
+    gemv_t(basis, b.rows, x, &mut g[..b.n]);
     if b.real {
         return;
     }
@@ -404,7 +472,7 @@ fn project(b: &Block, x: &[f64], y: &mut [f64], g: &mut [f64]) {
         y[r] = x[h + r];
         y[h + r] = -x[r];
     }
-    gemv_t(&b.phib, b.rows, y, &mut g[b.n..2 * b.n]);
+    gemv_t(basis, b.rows, y, &mut g[b.n..2 * b.n]);
 }
 
 /// Writes (or adds, with `add`) harmonic `k` of the boundary rows `x` into a `c2r` spectrum:
@@ -452,6 +520,48 @@ fn take_spectrum(
             x[nbp + r] = -b.w * f.im;
         }
     }
+}
+
+/// `Ĥ_k = Σ_m H(m) e^{−ikmα}`, k = 0..=N/2: the spline map from the contact-node
+/// displacements of sector `i` (its local frame) to the control points `Q[c][1..=M]` of class
+/// `cl = c − 1` (frame rotated by `cl·α`), `H(cl − i)`, probed column by column on sector 0.
+fn surface_harmonics(
+    spline: &CasingSpline,
+) -> Result<Vec<nalgebra::DMatrix<Complex64>>, crate::contact::SplineError> {
+    let (ns, m) = (spline.n_sectors(), spline.nodes_per_sector());
+    let nb = 3 * m;
+    let alpha = 2.0 * std::f64::consts::PI / ns as f64;
+    let mut disp = vec![nalgebra::Vector3::zeros(); ns * m];
+    let mut dq = vec![nalgebra::Vector3::zeros(); spline.n_control()];
+    // h[cl][(row, col)] = H(cl).
+    let mut h = vec![DMatrix::<f64>::zeros(nb, nb); ns];
+    for j in 0..m {
+        for d in 0..3 {
+            disp.iter_mut()
+                .for_each(|x| *x = nalgebra::Vector3::zeros());
+            disp[j][d] = 1.0;
+            spline.control_points(&disp, &mut dq)?;
+            for (cl, hc) in h.iter_mut().enumerate() {
+                let rt = crate::dynamics::contact_solve::rot_z(cl as f64 * alpha).transpose();
+                for r in 0..m {
+                    let v = rt * dq[spline.control_index(cl + 1, r + 1)];
+                    for e in 0..3 {
+                        hc[(3 * r + e, 3 * j + d)] = v[e];
+                    }
+                }
+            }
+        }
+    }
+    Ok((0..=ns / 2)
+        .map(|k| {
+            let mut hk = nalgebra::DMatrix::<Complex64>::zeros(nb, nb);
+            for (cl, hc) in h.iter().enumerate() {
+                let ph = Complex64::from_polar(1.0, -(((k * cl) % ns) as f64) * alpha);
+                hk.zip_apply(hc, |a, b| *a += ph * b);
+            }
+            hk
+        })
+        .collect())
 }
 
 /// The re-paired eigenbasis of a complex harmonic (see [`paired_modes`]).
@@ -537,6 +647,7 @@ fn paired_modes(b: &NdBlock) -> Result<PairedBasis, String> {
 #[derive(Clone, Copy)]
 enum Which {
     Next,
+    Current,
     Tmp,
 }
 
@@ -607,6 +718,12 @@ impl StructureKernel for ModalKernel {
     }
     fn is_finite(&self) -> bool {
         self.eta_next.iter().all(|x| x.is_finite())
+    }
+    fn map_to_surface(&mut self, spline: &CasingSpline) -> Result<bool, String> {
+        self.fold_spline(spline).map(|()| true)
+    }
+    fn node_displacements(&mut self, out: &mut [f64]) {
+        self.boundary_of(Which::Current, false, out);
     }
 }
 

@@ -2,6 +2,7 @@
 //! predicted casing contact nodes, project every blade-tip node, and when some gap is
 //! negative solve the contact problem and correct both structures.
 
+use crate::contact::spline::cubic_basis;
 use crate::contact::{CasingSpline, Projection, SurfaceParam, friction_direction, project_nodes};
 use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve, rot_z};
@@ -378,6 +379,18 @@ pub fn simulate(
         }
         None => None,
     };
+    // The fast casing kernel takes the spline into its modal basis (no spline solve per step).
+    let surface = match kc.as_mut() {
+        Some(k) if fast => k.map_to_surface(&spline).map_err(SimError::Spline)?,
+        _ => false,
+    };
+    let casing_frames = CasingFrames {
+        surface,
+        rot: rot_c.clone(),
+        rest_rows: y_c.clone(),
+        q_rest: q.clone(),
+    };
+    let mut nodes_c = vec![0.0; ncs * nbc];
     let mut window_residual = 0.0f64;
     let radius_scale = rest_nodes.iter().map(|p| p.xy().norm()).fold(0.0, f64::max);
 
@@ -400,10 +413,7 @@ pub fn simulate(
         stages.lap(Stage::Predict);
         // 2. Spline on the predicted casing nodes.
         if let Some(k) = kc.as_ref() {
-            fill_casing_nodes(k.boundary(), &rot_c, &y_c, mc, &mut pnodes);
-            spline
-                .control_points(&pnodes, &mut q)
-                .map_err(|e| SimError::Spline(e.to_string()))?;
+            casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
         }
         stages.lap(Stage::Spline);
         // 3. Blade-tip nodes and closest points.
@@ -422,22 +432,17 @@ pub fn simulate(
                 spline: &spline,
                 q: &q,
                 q_prev: &q_prev,
-                flexible: kc.is_some(),
+                casing: kc.is_some().then_some(&casing_frames),
                 r_om: &r_om,
                 rot_i: &rot_i,
-                rot_c: &rot_c,
                 nci,
-                mc,
             };
             let any = cs.apply(&fr, &proj, &gam, &gam_prev)?;
             if any {
                 ki.correct(&cs.fi);
                 if let Some(k) = kc.as_mut() {
                     k.correct(&cs.fc);
-                    fill_casing_nodes(k.boundary(), &rot_c, &y_c, mc, &mut pnodes);
-                    spline
-                        .control_points(&pnodes, &mut q)
-                        .map_err(|e| SimError::Spline(e.to_string()))?;
+                    casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
                 }
                 fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
                 project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj).map_err(|e| {
@@ -586,27 +591,19 @@ pub fn simulate(
                 fc.iter_mut().for_each(|x| *x = 0.0);
                 for (kk, cd) in cands.iter().enumerate() {
                     let l = lam[kk];
-                    if l == 0.0 {
-                        continue;
-                    }
-                    spline
-                        .node_weight_factors(&cd.param, &mut wu, &mut wv)
-                        .map_err(|e| SimError::Spline(e.to_string()))?;
-                    for i in 0..ncs {
-                        let fl = rot_c[i].transpose() * cd.fdir * (-l);
-                        for j in 0..mc {
-                            let wgt = wu[i] * wv[j];
-                            for d in 0..3 {
-                                fc[i * nbc + 3 * j + d] += wgt * fl[d];
-                            }
-                        }
+                    if l != 0.0 {
+                        casing_frames.add_force(
+                            &spline,
+                            &cd.param,
+                            &(cd.fdir * (-l)),
+                            (&mut wu, &mut wv),
+                            &mut fc,
+                        )?;
                     }
                 }
+                casing_frames.finish_forces(&mut fc);
                 k.correct(&fc);
-                fill_casing_nodes(k.boundary(), &rot_c, &y_c, mc, &mut pnodes);
-                spline
-                    .control_points(&pnodes, &mut q)
-                    .map_err(|e| SimError::Spline(e.to_string()))?;
+                casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
             }
             fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
             // Residual penetration: re-project the candidates on the corrected surface.
@@ -668,14 +665,13 @@ pub fn simulate(
                 out.blade_normal_force[s].push(force_n[s]);
                 out.blade_tangential_force[s].push(force_t[s]);
             }
-            if let Some(k) = kc.as_ref() {
+            if let Some(k) = kc.as_mut() {
+                if !case.casing_probes.is_empty() {
+                    k.node_displacements(&mut nodes_c);
+                }
                 for (pi, p) in case.casing_probes.iter().enumerate() {
-                    out.casing_radial[pi].push(er_c[p[1]].dot(&node_disp(
-                        k.boundary(),
-                        p[0],
-                        nbc,
-                        p[1],
-                    )));
+                    out.casing_radial[pi]
+                        .push(er_c[p[1]].dot(&node_disp(&nodes_c, p[0], nbc, p[1])));
                 }
                 let e = k.energies();
                 out.casing_energy.kinetic.push(e.kinetic);
@@ -802,13 +798,11 @@ struct StepFrames<'a> {
     spline: &'a CasingSpline,
     q: &'a [Vector3<f64>],
     q_prev: &'a [Vector3<f64>],
-    /// Whether the casing is flexible (casing forces are then assembled).
-    flexible: bool,
+    /// The flexible casing's frames (casing forces are then assembled); `None` if rigid.
+    casing: Option<&'a CasingFrames>,
     r_om: &'a Matrix3<f64>,
     rot_i: &'a [Matrix3<f64>],
-    rot_c: &'a [Matrix3<f64>],
     nci: usize,
-    mc: usize,
 }
 
 /// The abradable coating in the time loop (paper §4.1, Fig. 11).
@@ -943,7 +937,7 @@ impl CoatingStage {
             }
             // Relative increment of the node w.r.t. the casing material point (eq. 15).
             let mut inc = gam[node] - gam_prev[node];
-            if fr.flexible {
+            if fr.casing.is_some() {
                 let now = fr.spline.evaluate(fr.q, &p.param);
                 let before = fr.spline.evaluate(fr.q_prev, &p.param);
                 match (now, before) {
@@ -961,21 +955,20 @@ impl CoatingStage {
             for d in 0..3 {
                 self.fi[s * self.nbi + 3 * j + d] += floc[d];
             }
-            if fr.flexible {
-                add_casing_force_global(
+            if let Some(cf) = fr.casing {
+                cf.add_force(
                     fr.spline,
                     &p.param,
                     &(-fdir),
-                    &mut self.wu,
-                    &mut self.wv,
+                    (&mut self.wu, &mut self.wv),
                     &mut self.fc,
                 )?;
             }
             self.blade_force[s] += f;
         }
         if any {
-            if fr.flexible {
-                rotate_to_sector_frames(fr.rot_c, fr.mc, &mut self.fc);
+            if let Some(cf) = fr.casing {
+                cf.finish_forces(&mut self.fc);
             }
             self.out.coating_steps += 1;
             let peak = self.blade_force.iter().fold(0.0f64, |m, &x| m.max(x));
@@ -1081,6 +1074,112 @@ fn rotate_to_sector_frames(rot_c: &[Matrix3<f64>], mc: usize, fc: &mut [f64]) {
     }
 }
 
+/// The flexible casing's geometry in the time loop, and which channels its kernel uses.
+struct CasingFrames {
+    /// True when the spline is folded into the kernel ([`StructureKernel::map_to_surface`]):
+    /// the kernel's channels are control-point rows 1..=M per column class, else contact nodes.
+    surface: bool,
+    /// `R(θ_i)` per sector (column class).
+    rot: Vec<Matrix3<f64>>,
+    /// Contact nodes of sector 0 at rest, by row (m).
+    rest_rows: Vec<Vector3<f64>>,
+    /// Control points of the casing at rest (m).
+    q_rest: Vec<Vector3<f64>>,
+}
+
+impl CasingFrames {
+    /// Control points `q` (m, global) of the casing state whose channels are `ub`: from the
+    /// contact nodes through the spline solve (eq. 13), or directly from the folded kernel,
+    /// `Q[cl+1][k] = Q_rest + R(cl α) ΔQ_loc`, then the ghost rows (eq. 10) and wrap columns (eq. 11).
+    fn control_points(
+        &self,
+        spline: &CasingSpline,
+        ub: &[f64],
+        pnodes: &mut [Vector3<f64>],
+        q: &mut [Vector3<f64>],
+    ) -> Result<(), SimError> {
+        let m = self.rest_rows.len();
+        if !self.surface {
+            fill_casing_nodes(ub, &self.rot, &self.rest_rows, m, pnodes);
+            return spline
+                .control_points(pnodes, q)
+                .map_err(|e| SimError::Spline(e.to_string()));
+        }
+        let (n, nb) = (self.rot.len(), 3 * m);
+        for (cl, r) in self.rot.iter().enumerate() {
+            for k in 1..=m {
+                let at = spline.control_index(cl + 1, k);
+                q[at] = self.q_rest[at] + r * node_disp(ub, cl, nb, k - 1);
+            }
+            let (lo, hi) = (
+                spline.control_index(cl + 1, 0),
+                spline.control_index(cl + 1, m + 1),
+            );
+            q[lo] = q[lo + 1] * 2.0 - q[lo + 2];
+            q[hi] = q[hi - 1] * 2.0 - q[hi - 2];
+        }
+        for (dst, src) in [(0, n), (n + 1, 1), (n + 2, 2)] {
+            for k in 0..m + 2 {
+                q[spline.control_index(dst, k)] = q[spline.control_index(src, k)];
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds the casing share of a global force `f` (N) applied at the spline point `param` to
+    /// the casing load `fc` in the kernel's channels (eq. 18): on the 16 control points of the
+    /// patch with weights `N_a(u) N_b(v)` (ghost rows folded back by the transpose of eq. 10,
+    /// sector-local frames), or on the contact nodes through `B̂ c` (global frame until
+    /// [`CasingFrames::finish_forces`]). `wu`, `wv`: scratch of lengths N and M.
+    fn add_force(
+        &self,
+        spline: &CasingSpline,
+        param: &SurfaceParam,
+        f: &Vector3<f64>,
+        (wu, wv): (&mut [f64], &mut [f64]),
+        fc: &mut [f64],
+    ) -> Result<(), SimError> {
+        if !self.surface {
+            return add_casing_force_global(spline, param, f, wu, wv, fc);
+        }
+        let (n, m) = (self.rot.len(), self.rest_rows.len());
+        let nb = 3 * m;
+        let (cu, _, _) = cubic_basis(param.u);
+        let (cv, _, _) = cubic_basis(param.v);
+        for (a, wa) in cu.iter().enumerate() {
+            let cl = (param.i + a + n - 1) % n;
+            let fl = self.rot[cl].transpose() * f * *wa;
+            let mut put = |row: usize, w: f64| {
+                for d in 0..3 {
+                    fc[cl * nb + 3 * row + d] += w * fl[d];
+                }
+            };
+            for (b, &wb) in cv.iter().enumerate() {
+                match param.j + b {
+                    0 => {
+                        put(0, 2.0 * wb);
+                        put(1, -wb);
+                    }
+                    k if k == m + 1 => {
+                        put(m - 1, 2.0 * wb);
+                        put(m - 2, -wb);
+                    }
+                    k => put(k - 1, wb),
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Puts node-channel loads from the global frame into the sector frames (control-point
+    /// loads are assembled in them already).
+    fn finish_forces(&self, fc: &mut [f64]) {
+        if !self.surface {
+            rotate_to_sector_frames(&self.rot, self.rest_rows.len(), fc);
+        }
+    }
+}
+
 impl CoatingStage {
     /// Refuses a coating too stiff for the explicit treatment of its force. The coating force
     /// is evaluated on the predicted position and applied through `A⁻¹`: for a node of normal
@@ -1142,6 +1241,51 @@ mod tests {
 
     /// The casing share of a contact force is a partition of `f` over the data points: rotated
     /// back to the global frame the node forces sum to `f` (the spline weights sum to 1).
+    #[test]
+    fn casing_loads_are_the_transpose_of_the_surface_map() {
+        // Virtual work: for any channel displacement δ, the load of a point force f satisfies
+        // Σ F·δ = f·δS(param), in both channel modes, patches touching the ghost rows and the
+        // closing line included. δS comes from CasingFrames::control_points (the forward map).
+        let (n, m) = (7, 4);
+        let sp = CasingSpline::new(n, m).unwrap();
+        let rot: Vec<Matrix3<f64>> = (0..n)
+            .map(|i| rot_z(i as f64 * 2.0 * PI / n as f64))
+            .collect();
+        let f = Vector3::new(0.7, -1.3, 2.1);
+        let delta: Vec<f64> = (0..n * 3 * m)
+            .map(|i| ((i * 7919 % 113) as f64 / 113.0 - 0.5) * 1e-3)
+            .collect();
+        for surface in [false, true] {
+            let frames = CasingFrames {
+                surface,
+                rot: rot.clone(),
+                rest_rows: vec![Vector3::zeros(); m],
+                q_rest: vec![Vector3::zeros(); sp.n_control()],
+            };
+            let mut q = vec![Vector3::zeros(); sp.n_control()];
+            let mut pnodes = vec![Vector3::zeros(); n * m];
+            frames
+                .control_points(&sp, &delta, &mut pnodes, &mut q)
+                .unwrap();
+            for (i, j, u, v) in [(0, 0, 0.2, 0.1), (n - 1, m - 2, 0.9, 0.8), (3, 1, 0.5, 0.4)] {
+                let param = SurfaceParam { i, j, u, v };
+                let (mut wu, mut wv) = (vec![0.0; n], vec![0.0; m]);
+                let mut fc = vec![0.0; n * 3 * m];
+                frames
+                    .add_force(&sp, &param, &f, (&mut wu, &mut wv), &mut fc)
+                    .unwrap();
+                frames.finish_forces(&mut fc);
+                let work: f64 = fc.iter().zip(&delta).map(|(a, b)| a * b).sum();
+                let ds = sp.evaluate(&q, &param).unwrap().s;
+                assert!(
+                    (work - f.dot(&ds)).abs() <= 1e-13 * f.norm() * 1e-3,
+                    "surface = {surface}, patch ({i}, {j}): {work:e} vs {:e}",
+                    f.dot(&ds)
+                );
+            }
+        }
+    }
+
     #[test]
     fn casing_force_distribution_sums_to_the_contact_force() {
         let (n, m) = (8, 3);
