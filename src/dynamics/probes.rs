@@ -44,6 +44,8 @@ pub struct SimulationOutput {
     /// penetration (m) and largest vibration level (max |blade radial displacement|, m) of the run.
     pub n_steps: usize,
     pub contact_steps: usize,
+    /// Number of (step, blade-tip node) pairs with a positive Lagrange multiplier.
+    pub active_contacts: usize,
     pub max_residual_penetration: f64,
     pub max_blade_radial: f64,
     /// Wall-clock time of the stepping loop alone (s), setup excluded.

@@ -582,6 +582,7 @@ pub fn simulate(
                     fi[cd.blade * nbi + 3 * cd.row + d] += l * cd.f_loc[d];
                 }
                 force_n[cd.blade] += l;
+                out.active_contacts += 1;
                 if cd.slip {
                     force_t[cd.blade] += mu * l;
                 }
