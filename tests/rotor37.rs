@@ -1,20 +1,36 @@
 //! NASA Rotor 37 blade (CalculiX model in `../shared/rotor37`, see its README): run CalculiX,
 //! import its stored matrices, reduce them (Craig–Bampton on the 16 blade-tip nodes, 50
-//! fixed-interface modes) and compare the reduced model's eigenfrequencies with the ones
-//! CalculiX's own Lanczos solver prints in `blade.dat` (step 1 of the deck): an independent
-//! reference.
+//! fixed-interface modes), then
+//! 1. compare the reduced model's eigenfrequencies with the ones CalculiX's own Lanczos solver
+//!    prints in `blade.dat` (step 1 of the deck): an independent reference;
+//! 2. run the sweep `sweeps/rotor37_two_lobe.json` on that ROM and check, in its Parquet table,
+//!    that the largest responses lie where the piecewise-linear contact bounds computed from the
+//!    ROM alone put the engine-order resonances of the first mode (see [`ContactBands`]).
 //!
-//! Needs `ccx` (Debian `calculix-ccx`) on the PATH; without it the test fails when the
-//! environment variable `CI` is set and prints a skip note otherwise. The model folder is
+//! CalculiX runs once per test binary (a [`OnceLock`] fixture shared by both tests).
+//! Needs `ccx` (Debian `calculix-ccx`) on the PATH; without it the tests fail when the
+//! environment variable `CI` is set and print a skip note otherwise. The model folder is
 //! looked up in `$RUBSCAN_ROTOR37_DIR`, then `../shared/rotor37` and `../../shared/rotor37`
 //! relative to the package (the second one serves git worktrees under `wt/<name>`).
 
+use arrow_array::cast::AsArray;
+use arrow_array::types::Float64Type;
+use arrow_array::{Array, RecordBatch};
+use nalgebra::{DMatrix, Vector3};
+use rubscan::dynamics::structure::generalized_eigen;
 use rubscan::io::calculix::{
     CalculixImportSpec, ContactSelection, Units, import_calculix, read_calculix_mesh,
 };
+use rubscan::io::parquet::read_results;
+use rubscan::io::rom_file;
+use rubscan::model::rom::CyclicRom;
+use rubscan::sweep::simulator::ModelSimulator;
+use rubscan::sweep::spec::ModelSource;
+use rubscan::sweep::{RunOptions, load_spec, run_sweep};
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::Instant;
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
 
 /// Blade-tip contact nodes, leading edge → trailing edge (README of the model).
 const TIP: [usize; 16] = [
@@ -86,45 +102,64 @@ fn relative_errors(rom: &[f64], reference: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-#[test]
-fn rotor37_reduced_frequencies_match_calculix() {
-    let Some(src) = model_dir() else {
-        return skip_or_fail("model folder shared/rotor37 not found");
-    };
-    let Some(ccx) = find_ccx() else {
-        return skip_or_fail("ccx (Debian calculix-ccx) is not on the PATH");
-    };
+/// What the CalculiX run and the import leave for the tests (the scratch folder is gone).
+struct Imported {
+    /// The reduced model (SI).
+    rom: CyclicRom,
+    /// Eigenfrequencies (Hz) of the clamped blade printed by CalculiX in `blade.dat`.
+    reference: Vec<f64>,
+    /// Whether the DOF map written by ccx equals the shipped `blade.dof`.
+    dof_map_matches: bool,
+    /// Positions (mm, as in the deck) of the [`TIP`] nodes in the mesh.
+    tip_mm: Vec<[f64; 3]>,
+    ccx_time: Duration,
+    import_time: Duration,
+}
+
+/// Why the fixture has no model: a missing prerequisite (skip unless `CI`) or a failure.
+enum Unavailable {
+    Skip(String),
+    Failed(String),
+}
+
+/// Runs CalculiX on a scratch copy of the model and imports its matrices.
+fn setup() -> Result<Imported, Unavailable> {
+    let src = model_dir().ok_or(Unavailable::Skip(
+        "model folder shared/rotor37 not found".into(),
+    ))?;
+    let ccx = find_ccx().ok_or(Unavailable::Skip(
+        "ccx (Debian calculix-ccx) is not on the PATH".into(),
+    ))?;
+    let fail = |what: &str, e: &dyn std::fmt::Display| Unavailable::Failed(format!("{what}: {e}"));
     let work = std::env::temp_dir().join(format!("rubscan-rotor37-{}", std::process::id()));
-    std::fs::create_dir_all(&work).unwrap();
+    std::fs::create_dir_all(&work).map_err(|e| fail("scratch folder", &e))?;
     let _guard = Scratch(work.clone());
     for f in ["blade.inp", "blade.msh"] {
-        std::fs::copy(src.join(f), work.join(f)).unwrap();
+        std::fs::copy(src.join(f), work.join(f)).map_err(|e| fail(f, &e))?;
     }
 
     let t = Instant::now();
-    let log = std::fs::File::create(work.join("ccx.log")).unwrap();
+    let log = std::fs::File::create(work.join("ccx.log")).map_err(|e| fail("ccx.log", &e))?;
+    let log2 = log.try_clone().map_err(|e| fail("ccx.log", &e))?;
     let status = Command::new(&ccx)
         .arg("blade")
         .current_dir(&work)
         .env("OMP_NUM_THREADS", "1")
-        .stdout(log.try_clone().unwrap())
+        .stdout(log2)
         .stderr(log)
         .status()
-        .expect("ccx runs");
+        .map_err(|e| fail("running ccx", &e))?;
     let ccx_time = t.elapsed();
-    assert!(
-        status.success(),
-        "ccx failed ({status}); see {}",
-        work.join("ccx.log").display()
-    );
-    let produced = std::fs::read(work.join("blade.dof")).expect("ccx wrote blade.dof");
-    let shipped = std::fs::read(src.join("blade.dof")).unwrap();
-    assert!(
-        produced == shipped,
-        "the DOF map written by ccx differs from the shipped blade.dof"
-    );
+    if !status.success() {
+        let log = std::fs::read_to_string(work.join("ccx.log")).unwrap_or_default();
+        return Err(Unavailable::Failed(format!(
+            "ccx failed ({status}):\n{log}"
+        )));
+    }
+    let produced = std::fs::read(work.join("blade.dof")).map_err(|e| fail("blade.dof", &e))?;
+    let shipped =
+        std::fs::read(src.join("blade.dof")).map_err(|e| fail("shipped blade.dof", &e))?;
     let reference = dat_frequencies(&work.join("blade.dat"));
-    assert!(reference.len() >= 10, "blade.dat lists {reference:?}");
 
     let spec = CalculixImportSpec::from_job(
         &work,
@@ -134,12 +169,50 @@ fn rotor37_reduced_frequencies_match_calculix() {
         Units::MmTonneSecond,
     );
     let t = Instant::now();
-    let rom = import_calculix(&spec).expect("import and reduction");
+    let rom = import_calculix(&spec).map_err(|e| fail("import and reduction", &e))?;
     let import_time = t.elapsed();
+    let mesh = read_calculix_mesh(&work.join("blade.inp")).map_err(|e| fail("blade.inp", &e))?;
+    let tip_mm = TIP.iter().map(|id| mesh.nodes[id]).collect();
+    Ok(Imported {
+        rom,
+        reference,
+        dof_map_matches: produced == shipped,
+        tip_mm,
+        ccx_time,
+        import_time,
+    })
+}
+
+/// The imported model, computed once per test binary; `None` = skipped (printed).
+fn imported() -> Option<&'static Imported> {
+    static FIXTURE: OnceLock<Result<Imported, Unavailable>> = OnceLock::new();
+    match FIXTURE.get_or_init(setup) {
+        Ok(i) => Some(i),
+        Err(Unavailable::Skip(why)) => {
+            skip_or_fail(why);
+            None
+        }
+        Err(Unavailable::Failed(why)) => panic!("{why}"),
+    }
+}
+
+#[test]
+fn rotor37_reduced_frequencies_match_calculix() {
+    let Some(imp) = imported() else { return };
+    let rom = &imp.rom;
+    assert!(
+        imp.dof_map_matches,
+        "the DOF map written by ccx differs from the shipped blade.dof"
+    );
+    let reference = &imp.reference;
+    assert!(reference.len() >= 10, "blade.dat lists {reference:?}");
 
     let f = &rom.modal_data[0].frequencies[0];
     let err = relative_errors(&f[..10], &reference[..10]);
-    eprintln!("ccx {ccx_time:.1?}, import + reduction {import_time:.1?}");
+    eprintln!(
+        "ccx {:.1?}, import + reduction {:.1?}",
+        imp.ccx_time, imp.import_time
+    );
     eprintln!("mode  CalculiX (Hz)  ROM (Hz)  rel. error");
     for p in 0..10 {
         eprintln!(
@@ -164,12 +237,363 @@ fn rotor37_reduced_frequencies_match_calculix() {
     assert_eq!(rom.n_sectors, 1);
     assert_eq!(rom.n_contact(), 16);
     assert_eq!(rom.harmonics[0].mass.size(), 48 + N_MODES);
-    let mesh = read_calculix_mesh(&work.join("blade.inp")).unwrap();
-    for (c, id) in rom.contact_nodes.iter().zip(TIP) {
-        for (p, x) in c.position.iter().zip(mesh.nodes[&id]) {
+    for (c, x_mm) in rom.contact_nodes.iter().zip(&imp.tip_mm) {
+        for (p, x) in c.position.iter().zip(x_mm) {
             assert!((p - 1e-3 * x).abs() <= 1e-15 * x.abs().max(1.0));
         }
     }
+}
+
+/// Unit vectors (global frame) normal to the casing surface facing each contact node, in
+/// contact-node order. The rigid casing of the sweep is the blade-tip meridian moved out by
+/// the clearance and distorted by lobes of sub-millimetre amplitude on a ≈ 0.63 m radius,
+/// so its normal is the normal of the tip meridian in the (r, z) half-plane (central
+/// differences along the tip, LE → TE), on the radially outward side. The lobes tilt it
+/// circumferentially by at most n·a/r ≈ 2·10⁻³ rad, neglected. This meridian rises by 17 mm
+/// over 62 mm of axial chord: the normal leans ≈ 15° from the radial direction.
+fn casing_normals(rom: &CyclicRom) -> Vec<Vector3<f64>> {
+    let mut order: Vec<usize> = (0..rom.n_contact()).collect();
+    order.sort_by_key(|&i| rom.contact_nodes[i].row);
+    let rz = |i: usize| {
+        let p = rom.contact_nodes[i].position;
+        [p[0].hypot(p[1]), p[2]]
+    };
+    let mut normals = vec![Vector3::zeros(); rom.n_contact()];
+    for (j, &i) in order.iter().enumerate() {
+        let a = rz(order[j.saturating_sub(1)]);
+        let b = rz(order[(j + 1).min(order.len() - 1)]);
+        let (dr, dz) = (b[0] - a[0], b[1] - a[1]);
+        let len = dr.hypot(dz);
+        let (mut nr, mut nz) = (dz / len, -dr / len);
+        if nr < 0.0 {
+            (nr, nz) = (-nr, -nz);
+        }
+        let p = rom.contact_nodes[i].position;
+        let er = Vector3::new(p[0], p[1], 0.0).normalize();
+        normals[i] = er * nr + Vector3::z() * nz;
+    }
+    normals
+}
+
+/// Radial unit vectors (rotation axis z) at the contact nodes.
+fn radial_directions(rom: &CyclicRom) -> Vec<Vector3<f64>> {
+    rom.contact_nodes
+        .iter()
+        .map(|c| Vector3::new(c.position[0], c.position[1], 0.0).normalize())
+        .collect()
+}
+
+/// Natural circular frequencies (rad/s, ascending) of the ROM at rest (K0, M of the single
+/// blade) with the displacement of contact node i along `held[i]` fixed to zero: the
+/// displacement space is restricted to the complement of those directions (two tangent unit
+/// vectors per node, modal coordinates untouched) and the reduced pencil (Tᵀ K T, Tᵀ M T) is
+/// solved. `held = None` gives the free blade.
+fn held_frequencies(rom: &CyclicRom, held: Option<&[Vector3<f64>]>) -> Vec<f64> {
+    let h = &rom.harmonics[0];
+    let (k, m) = (&h.stiffness[0].re, &h.mass.re);
+    let n = k.nrows();
+    let t = match held {
+        None => DMatrix::identity(n, n),
+        Some(dirs) => {
+            let nc = dirs.len();
+            let mut t = DMatrix::zeros(n, n - nc);
+            for (i, d) in dirs.iter().enumerate() {
+                // Any axis not nearly parallel to d gives the first tangent.
+                let axis = if d.x.abs() < 0.5 {
+                    Vector3::x()
+                } else {
+                    Vector3::y()
+                };
+                let t1 = d.cross(&axis).normalize();
+                let t2 = d.cross(&t1);
+                for r in 0..3 {
+                    t[(3 * i + r, 2 * i)] = t1[r];
+                    t[(3 * i + r, 2 * i + 1)] = t2[r];
+                }
+            }
+            for j in 3 * nc..n {
+                t[(j, j - nc)] = 1.0;
+            }
+            t
+        }
+    };
+    let (kt, mt) = (t.transpose() * k * &t, t.transpose() * m * &t);
+    let (lambdas, _) = generalized_eigen(&kt, &mt).expect("reduced pencil is definite");
+    lambdas.iter().map(|l| l.max(0.0).sqrt()).collect()
+}
+
+/// Where the engine-order resonances of the blade in rubbing contact can lie, from the ROM
+/// alone. With a rigid casing and sliding contact (μ = 0.1 at a sliding speed ≈ Ω r of
+/// hundreds of m/s: no sticking), the blade is piecewise linear: free when no tip node
+/// touches, and constrained along the casing normal at the nodes in contact. Each linear
+/// piece lies between the free blade and the blade with every tip node held along the normal
+/// (minimax / interlacing: adding constraints never lowers a natural frequency), so its p-th
+/// natural frequency lies in [ω_free,p, ω_held,p]; an oscillation switching between pieces
+/// has a frequency between those of its pieces (exact for a single-mode, bilinear
+/// oscillator), so engine order k meets mode p at a speed in [ω_free,p / k, ω_held,p / k]
+/// (no centrifugal stiffening: K(Ω) = K0). The normal, not the radial direction, is the one
+/// the contact constrains: held radially, the first mode would stop at 460 Hz instead of
+/// 638 Hz, which is no bound for this conical casing (both are printed).
+struct ContactBands {
+    /// Free blade (rad/s).
+    free: Vec<f64>,
+    /// Every tip node held along the casing normal (rad/s).
+    held: Vec<f64>,
+}
+
+impl ContactBands {
+    /// Speed band (rad/s) of engine order `k` meeting mode `p` (0-based).
+    fn band(&self, p: usize, k: usize) -> (f64, f64) {
+        (self.free[p] / k as f64, self.held[p] / k as f64)
+    }
+}
+
+/// One row of the sweep's results table.
+struct Row {
+    speed: f64,
+    status: String,
+    reason: Option<String>,
+    te_max: f64,
+    df: f64,
+    spectrum: Vec<f64>,
+}
+
+fn f64_column(b: &RecordBatch, name: &str) -> Vec<Option<f64>> {
+    let c = b
+        .column_by_name(name)
+        .unwrap_or_else(|| panic!("column {name}"))
+        .as_primitive::<Float64Type>();
+    (0..c.len())
+        .map(|i| (!c.is_null(i)).then(|| c.value(i)))
+        .collect()
+}
+
+/// Reads the rows of `results.parquet` back through Arrow.
+fn read_rows(path: &Path) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for b in read_results(path).expect("results.parquet readable") {
+        let speed = f64_column(&b, "speed_rad_s");
+        let te = f64_column(&b, "max_blade_te_radial_m");
+        let df = f64_column(&b, "spectrum_df_hz");
+        let status = b.column_by_name("status").unwrap().as_string::<i32>();
+        let reason = b.column_by_name("reason").unwrap().as_string::<i32>();
+        let spectra = b
+            .column_by_name("spectrum_amplitude_m")
+            .unwrap()
+            .as_list::<i32>();
+        for i in 0..b.num_rows() {
+            let spectrum = if spectra.is_null(i) {
+                vec![]
+            } else {
+                let v = spectra.value(i);
+                let v = v.as_primitive::<Float64Type>();
+                v.values().to_vec()
+            };
+            rows.push(Row {
+                speed: speed[i].expect("speed"),
+                status: status.value(i).to_string(),
+                reason: (!reason.is_null(i)).then(|| reason.value(i).to_string()),
+                te_max: te[i].unwrap_or(f64::NAN),
+                df: df[i].unwrap_or(f64::NAN),
+                spectrum,
+            });
+        }
+    }
+    rows.sort_by(|a, b| a.speed.total_cmp(&b.speed));
+    rows
+}
+
+impl Row {
+    /// Amplitude (m) of the engine-order-`k` line of the blade-tip spectrum (steady window):
+    /// the largest bin within one bin of k Ω / 2π (the Hann main lobe).
+    fn order_amplitude(&self, k: usize) -> f64 {
+        let f = k as f64 * self.speed / (2.0 * std::f64::consts::PI);
+        let j = (f / self.df).round() as usize;
+        assert!(j + 1 < self.spectrum.len(), "EO {k} beyond the spectrum");
+        self.spectrum[j.saturating_sub(1)..=j + 1]
+            .iter()
+            .fold(0.0, |m, &a| m.max(a))
+    }
+}
+
+/// Half the grid step at row `i` (the larger neighbouring gap): the grid's own resolution.
+fn half_step(rows: &[Row], i: usize) -> f64 {
+    let left = if i > 0 {
+        rows[i].speed - rows[i - 1].speed
+    } else {
+        0.0
+    };
+    let right = rows.get(i + 1).map_or(0.0, |r| r.speed - rows[i].speed);
+    0.5 * left.max(right)
+}
+
+/// Index of the largest `value` among `rows[idx]`.
+fn argmax(rows: &[Row], idx: &[usize], value: impl Fn(&Row) -> f64) -> usize {
+    *idx.iter()
+        .max_by(|&&a, &&b| value(&rows[a]).total_cmp(&value(&rows[b])))
+        .expect("non-empty bracket")
+}
+
+fn in_band(speed: f64, (lo, hi): (f64, f64), tol: f64) -> bool {
+    speed >= lo - tol && speed <= hi + tol
+}
+
+/// The engine orders of the first mode the two-lobe scan is about.
+const ORDERS: [usize; 2] = [2, 4];
+
+#[test]
+fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
+    let Some(imp) = imported() else { return };
+    let rom = &imp.rom;
+
+    // 1. The prediction, from the ROM alone.
+    let normals = casing_normals(rom);
+    let radial = radial_directions(rom);
+    let bands = ContactBands {
+        free: held_frequencies(rom, None),
+        held: held_frequencies(rom, Some(&normals)),
+    };
+    let held_radial = held_frequencies(rom, Some(&radial));
+    let tilt = normals
+        .iter()
+        .zip(&radial)
+        .map(|(n, r)| n.dot(r).clamp(-1.0, 1.0).acos().to_degrees())
+        .fold(0.0, f64::max);
+    let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+    eprintln!("casing normal leans up to {tilt:.1}° from radial");
+    eprintln!("mode  free (Hz)  held along normal (Hz)  held radially (Hz)");
+    for (p, radially) in held_radial.iter().take(3).enumerate() {
+        eprintln!(
+            "{:4}  {:9.1}  {:22.1}  {:18.1}",
+            p + 1,
+            hz(bands.free[p]),
+            hz(bands.held[p]),
+            hz(*radially)
+        );
+    }
+    for k in [2, 4, 6] {
+        let line: Vec<String> = (0..3)
+            .map(|p| {
+                let (lo, hi) = bands.band(p, k);
+                format!("mode {}: [{lo:.0}, {hi:.0}]", p + 1)
+            })
+            .collect();
+        eprintln!("EO {k} bands (rad/s): {}", line.join("  "));
+    }
+    // The free pencil reproduces the stored modal data (same matrices, second route).
+    let stored = &rom.modal_data[0].frequencies[0];
+    for p in 0..3 {
+        assert!((hz(bands.free[p]) - stored[p]).abs() < 1e-6 * stored[p]);
+        assert!(bands.held[p] > bands.free[p] && held_radial[p] > bands.free[p]);
+    }
+
+    // 2. The sweep, as shipped, on the freshly imported ROM.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut spec = load_spec(&root.join("sweeps/rotor37_two_lobe.json")).expect("sweep spec");
+    let work = std::env::temp_dir().join(format!("rubscan-rotor37-sweep-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&work);
+    std::fs::create_dir_all(&work).unwrap();
+    let _guard = Scratch(work.clone());
+    let rom_path = work.join("blade.rom");
+    rom_file::save(rom, &rom_path).expect("ROM written");
+    spec.models.impeller = ModelSource::Rom(rom_path);
+    let sim = ModelSimulator::new(&spec).expect("models of the sweep");
+    let t = Instant::now();
+    let summary = run_sweep(&spec, &RunOptions::new(work.join("out")), &sim).expect("sweep");
+    eprintln!(
+        "sweep: {} jobs in {:.1?} ({:.1} s of job time)",
+        summary.planned,
+        t.elapsed(),
+        summary.job_time_s_total
+    );
+
+    // 3. The Parquet table.
+    let rows = read_rows(&summary.results_path);
+    eprintln!("Ω (rad/s)  max TE radial (mm)  EO2 line (µm)  EO4 line (µm)");
+    for r in &rows {
+        let line = |k| {
+            if r.status == "ok" {
+                format!("{:13.1}", 1e6 * r.order_amplitude(k))
+            } else {
+                "            -".into()
+            }
+        };
+        eprintln!(
+            "{:9.1}  {:18.4}  {}  {}",
+            r.speed,
+            1e3 * r.te_max,
+            line(2),
+            line(4)
+        );
+    }
+    // (a) Every job finished.
+    assert_eq!(rows.len(), summary.planned, "rows in results.parquet");
+    for r in &rows {
+        assert!(
+            r.status == "ok",
+            "job at Ω = {} rad/s: {} ({:?})",
+            r.speed,
+            r.status,
+            r.reason
+        );
+    }
+
+    // (b) Per engine order k: its bracket is the part of the grid below the free crossing
+    // of the next lower order (ω_free,1 / (k − 2)); there no lower order can be resonant with
+    // mode 1 (contact only raises the resonance speed), so the EO-k line of the response is
+    // not a harmonic of a lower-order resonance. The bracket must meet no other mode's EO-k
+    // band: then the EO-k line can only peak where EO k meets mode 1.
+    for k in ORDERS {
+        let upper = if k > 2 {
+            bands.free[0] / (k - 2) as f64
+        } else {
+            f64::INFINITY
+        };
+        let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].speed < upper).collect();
+        assert!(!idx.is_empty(), "EO {k}: empty bracket");
+        let (lo_s, hi_s) = (rows[idx[0]].speed, rows[*idx.last().unwrap()].speed);
+        for p in 1..bands.held.len() {
+            let (lo, hi) = bands.band(p, k);
+            assert!(
+                hi < lo_s || lo > hi_s,
+                "EO {k} bracket [{lo_s}, {hi_s}] rad/s also meets mode {} ([{lo:.0}, {hi:.0}])",
+                p + 1
+            );
+        }
+        let band = bands.band(0, k);
+        let i = argmax(&rows, &idx, |r| r.order_amplitude(k));
+        let tol = half_step(&rows, i);
+        eprintln!(
+            "EO {k}: bracket [{lo_s}, {hi_s}] rad/s, largest EO-{k} line at {} rad/s, band [{:.0}, {:.0}] ± {tol}",
+            rows[i].speed, band.0, band.1
+        );
+        assert!(
+            in_band(rows[i].speed, band, tol),
+            "EO {k}: largest EO-{k} response at {} rad/s, outside the contact band [{:.1}, {:.1}] ± {tol} rad/s",
+            rows[i].speed,
+            band.0,
+            band.1
+        );
+    }
+
+    // (c) The largest blade response of the whole scan lies in one of those bands.
+    let all: Vec<usize> = (0..rows.len()).collect();
+    let i = argmax(&rows, &all, |r| r.te_max);
+    let tol = half_step(&rows, i);
+    let hit: Vec<usize> = ORDERS
+        .into_iter()
+        .filter(|&k| in_band(rows[i].speed, bands.band(0, k), tol))
+        .collect();
+    eprintln!(
+        "largest TE radial displacement {:.3} mm at {} rad/s: in the band of EO {hit:?}",
+        1e3 * rows[i].te_max,
+        rows[i].speed
+    );
+    assert!(
+        !hit.is_empty(),
+        "largest response at {} rad/s lies in no band of EO {ORDERS:?}",
+        rows[i].speed
+    );
 }
 
 /// Import + reduction only, on an existing CalculiX run (`$RUBSCAN_ROTOR37_RUN`, default
