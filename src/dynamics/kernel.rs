@@ -38,6 +38,13 @@ pub trait StructureKernel {
     fn boundary(&self) -> &[f64];
     /// Correction `u_{n+1} += A⁻¹ f` for boundary forces `f` (N, sector-major); refreshes the boundary.
     fn correct(&mut self, forces: &[f64]);
+    /// [`StructureKernel::correct`], after which the next [`StructureKernel::predict`] must be
+    /// called with `next_amplitude`; a kernel may form that predictor now, in the same pass
+    /// over its matrices (the result is the same).
+    fn correct_then_predict(&mut self, forces: &[f64], next_amplitude: f64) {
+        let _ = next_amplitude;
+        self.correct(forces);
+    }
     /// Boundary displacements of `A⁻¹ f` (no change of state): the boundary flexibility.
     fn response(&mut self, forces: &[f64], out: &mut [f64]);
     /// Shifts time: `u_{n−1} ← u_n`, `u_n ← u_{n+1}`.

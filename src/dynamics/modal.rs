@@ -76,6 +76,12 @@ pub struct ModalKernel {
     spec: Vec<Complex64>,
     /// Spectrum of the current `u_{n+1}` boundary (set by predict, updated by correct).
     spec_state: Vec<Complex64>,
+    /// Predictor of the next step formed during the last correction (see
+    /// [`StructureKernel::correct_then_predict`]): modal coordinates, channel spectrum, and
+    /// the load amplitude it used (`None`: not formed, or used up).
+    eta_pred: Vec<f64>,
+    spec_pred: Vec<Complex64>,
+    pred_amplitude: Option<f64>,
     /// Spectrum of the last force passed to correct/response.
     fspec: Vec<Complex64>,
     /// Modal increment of one block (`dim` ≤ max block size).
@@ -186,6 +192,9 @@ impl ModalKernel {
             spec: vec![Complex64::new(0.0, 0.0); nb * nspec],
             spec_state: vec![Complex64::new(0.0, 0.0); nb * nspec],
             fspec: vec![Complex64::new(0.0, 0.0); nb * nspec],
+            eta_pred: vec![0.0; n],
+            spec_pred: vec![Complex64::new(0.0, 0.0); nb * nspec],
+            pred_amplitude: None,
             deta: vec![0.0; st.blocks.iter().map(|b| b.dim).max().unwrap_or(0)],
             yb: vec![0.0; 2 * nbp],
             tbuf: vec![0.0; ns],
@@ -310,24 +319,24 @@ impl ModalKernel {
     /// Fused `A⁻¹ f` of the force spectrum in `fspec`, one nodal diameter at a time:
     /// `Δη = diag(1/a) Φ_bᵀ F_k`, then `ΔU_k = Φ_b Δη` while Φ_b is hot in cache. With
     /// `state`, `Δη` is added to `η_{n+1}` and `ΔU` to `spec_state`; otherwise `spec` is
-    /// overwritten with `ΔU` (the response alone).
-    fn apply_force_spectrum(&mut self, state: bool) {
+    /// overwritten with `ΔU` (the response alone). With `next = Some(a)` (and `state`), the
+    /// predictor of the following step with load amplitude `a` is formed in the same pass, into
+    /// `eta_pred`/`spec_pred`, so that a contact step reads each basis once from memory.
+    fn apply_force_spectrum(&mut self, state: bool, next: Option<f64>) {
         let nspec = self.ns / 2 + 1;
         let nb = self.nb;
         for (k, b) in self.blocks.iter().enumerate() {
             let xb = &mut self.xb[..b.rows];
             let yb = &mut self.yb[..b.rows];
+            let range = b.offset..b.offset + b.dim;
             take_spectrum(b, self.nbp, nb, nspec, k, &self.fspec, xb);
             let deta = &mut self.deta[..b.dim];
             project(b, b.step_basis(), xb, yb, deta);
-            for (d, c) in deta.iter_mut().zip(&self.c3[b.offset..b.offset + b.dim]) {
+            for (d, c) in deta.iter_mut().zip(&self.c3[range.clone()]) {
                 *d *= c;
             }
             if state {
-                for (e, d) in self.eta_next[b.offset..b.offset + b.dim]
-                    .iter_mut()
-                    .zip(deta.iter())
-                {
+                for (e, d) in self.eta_next[range.clone()].iter_mut().zip(deta.iter()) {
                     *e += d;
                 }
             }
@@ -338,7 +347,17 @@ impl ModalKernel {
             };
             expand(b, b.step_basis(), deta, xb, yb);
             put_spectrum(b, self.nbp, nb, nspec, k, xb, spec, state);
+            if let Some(a) = next {
+                for i in range.clone() {
+                    self.eta_pred[i] = self.c1[i] * self.eta_next[i]
+                        + self.c2[i] * self.eta[i]
+                        + self.c3[i] * a * self.gload[i];
+                }
+                expand(b, b.step_basis(), &self.eta_pred[range], xb, yb);
+                put_spectrum(b, self.nbp, nb, nspec, k, xb, &mut self.spec_pred, false);
+            }
         }
+        self.pred_amplitude = next;
     }
 
     /// Modal forces `Φᵀ P f` of boundary forces `f` (sector-major), scaled by `1/a_p`, added to `dst`.
@@ -659,6 +678,7 @@ impl StructureKernel for ModalKernel {
         self.nb
     }
     fn set_load_pattern(&mut self, pattern: &[f64]) {
+        self.pred_amplitude = None;
         // g = Φᵀ P f: reuse the response path with c3 divided out.
         self.tmp_eta.iter_mut().for_each(|x| *x = 0.0);
         self.add_response(pattern, Which::Tmp);
@@ -667,6 +687,7 @@ impl StructureKernel for ModalKernel {
         }
     }
     fn set_initial_velocity(&mut self, velocity: &[f64]) {
+        self.pred_amplitude = None;
         let mut v = vec![0.0; self.eta.len()];
         self.physical_to_modal(velocity, &mut v);
         self.eta.iter_mut().for_each(|x| *x = 0.0);
@@ -675,6 +696,13 @@ impl StructureKernel for ModalKernel {
         }
     }
     fn predict(&mut self, amplitude: f64) {
+        if self.pred_amplitude.take() == Some(amplitude) {
+            // Formed by the last correct_then_predict, from the same η_n, η_{n−1}.
+            std::mem::swap(&mut self.eta_next, &mut self.eta_pred);
+            std::mem::swap(&mut self.spec_state, &mut self.spec_pred);
+            self.spectrum_to_boundary(true, &mut []);
+            return;
+        }
         for i in 0..self.eta.len() {
             self.eta_next[i] = self.c1[i] * self.eta[i]
                 + self.c2[i] * self.eta_prev[i]
@@ -687,12 +715,17 @@ impl StructureKernel for ModalKernel {
     }
     fn correct(&mut self, forces: &[f64]) {
         self.forces_to_spectrum(forces);
-        self.apply_force_spectrum(true);
+        self.apply_force_spectrum(true, None);
+        self.spectrum_to_boundary(true, &mut []);
+    }
+    fn correct_then_predict(&mut self, forces: &[f64], next_amplitude: f64) {
+        self.forces_to_spectrum(forces);
+        self.apply_force_spectrum(true, Some(next_amplitude));
         self.spectrum_to_boundary(true, &mut []);
     }
     fn response(&mut self, forces: &[f64], out: &mut [f64]) {
         self.forces_to_spectrum(forces);
-        self.apply_force_spectrum(false);
+        self.apply_force_spectrum(false, None);
         self.spectrum_to_boundary(false, out);
     }
     fn advance(&mut self) {
@@ -867,6 +900,43 @@ fn gemv_t_impl(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
 #[cfg(test)]
 mod gemv_tests {
     use super::*;
+
+    /// `correct_then_predict` + `predict` gives exactly the state and channels of `correct` +
+    /// `predict` (the same arithmetic in the same order), and the fused predictor is used.
+    #[test]
+    fn fused_correction_and_prediction_equal_the_separate_calls() {
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 3, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let h = 0.3 * st.stability_limit();
+        let nb = 9;
+        let pattern: Vec<f64> = (0..8 * nb)
+            .map(|i| ((i * 13 % 7) as f64 - 3.0) * 1e3)
+            .collect();
+        let (mut a, mut b) = (
+            ModalKernel::new(&st, h).unwrap(),
+            ModalKernel::new(&st, h).unwrap(),
+        );
+        a.set_load_pattern(&pattern);
+        b.set_load_pattern(&pattern);
+        for step in 0..20 {
+            let amp = (step as f64 * 0.3).sin();
+            let f: Vec<f64> = (0..8 * nb)
+                .map(|i| ((i + step) % 5) as f64 * 10.0 - 20.0)
+                .collect();
+            a.predict(amp);
+            b.predict(amp);
+            assert_eq!(a.boundary(), b.boundary(), "step {step}");
+            let next = ((step + 1) as f64 * 0.3).sin();
+            a.correct(&f);
+            b.correct_then_predict(&f, next);
+            assert_eq!(b.pred_amplitude, Some(next));
+            assert_eq!(a.boundary(), b.boundary());
+            a.advance();
+            b.advance();
+        }
+    }
 
     /// The re-paired basis of every complex harmonic is an M-orthonormal eigenbasis of
     /// `(K(Ω), M)` whose second half is `J` times the first (checked against the matrices, not

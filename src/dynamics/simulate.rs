@@ -398,7 +398,8 @@ pub fn simulate(
     let mut stages = StageClock::new();
     for step in 0..n_steps {
         let t_n = step as f64 * h;
-        let t1 = t_n + h;
+        // The same expression as the next step's t_n (the fused predictor checks its amplitude).
+        let t1 = (step + 1) as f64 * h;
         if step % 1024 == 0
             && let Some(c) = cancel
             && c.load(Ordering::Relaxed)
@@ -603,7 +604,7 @@ pub fn simulate(
                     }
                 }
                 casing_frames.finish_forces(&mut fc);
-                k.correct(&fc);
+                k.correct_then_predict(&fc, case.load_factor(t1));
                 casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
             }
             fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
