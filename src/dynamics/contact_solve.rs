@@ -155,11 +155,8 @@ impl ControlFlexTable {
         }
     }
 
-    /// Casing contribution to `W` of the pair (k, l): `n_kᵀ [Σ_a Σ_b c^k_a c^l_b HQ(a, b)] f_l`
-    /// for surface points `pk`, `pl` (their 16 control points and basis weights `c`, eq. 18).
-    /// The tensor-product weights are contracted along the meridian first (7 distinct
-    /// circumferential offsets), so a pair costs ~1.2k flops instead of 256 3×3 products.
-    /// AVX2/FMA code when the CPU has it (runtime check; same arithmetic, same result).
+    /// Casing contribution to `W` of the pair (k, l): `n_kᵀ V(k, l) f_l`, see
+    /// [`ControlFlexTable::pair_block`].
     pub fn pair(
         &self,
         pk: &crate::contact::SurfaceParam,
@@ -167,38 +164,48 @@ impl ControlFlexTable {
         pl: &crate::contact::SurfaceParam,
         fl: &Vector3<f64>,
     ) -> f64 {
+        nk.dot(&(self.pair_block(pk, pl) * fl))
+    }
+
+    /// Flexibility between two surface points (m/N, global frame): the displacement of
+    /// `S(pk)` per unit force at `S(pl)`, `V(k, l) = Σ_a Σ_b c^k_a c^l_b HQ(a, b)` over their 16
+    /// control points and basis weights `c` (eq. 18). `V(l, k) = V(k, l)ᵀ` (Maxwell–Betti), so
+    /// a contact matrix needs it once per unordered pair. The tensor-product weights are
+    /// contracted along the meridian first (7 distinct circumferential offsets): ~1.4k flops.
+    /// AVX2/FMA code when the CPU has it (runtime check; same arithmetic).
+    pub fn pair_block(
+        &self,
+        pk: &crate::contact::SurfaceParam,
+        pl: &crate::contact::SurfaceParam,
+    ) -> Matrix3<f64> {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2")
                 && std::arch::is_x86_feature_detected!("fma")
             {
                 // SAFETY: the CPU supports the enabled features (checked just above).
-                return unsafe { self.pair_avx2(pk, nk, pl, fl) };
+                return unsafe { self.pair_block_avx2(pk, pl) };
             }
         }
-        self.pair_impl(pk, nk, pl, fl)
+        self.pair_block_impl(pk, pl)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn pair_avx2(
+    fn pair_block_avx2(
         &self,
         pk: &crate::contact::SurfaceParam,
-        nk: &Vector3<f64>,
         pl: &crate::contact::SurfaceParam,
-        fl: &Vector3<f64>,
-    ) -> f64 {
-        self.pair_impl(pk, nk, pl, fl)
+    ) -> Matrix3<f64> {
+        self.pair_block_impl(pk, pl)
     }
 
     #[inline(always)]
-    fn pair_impl(
+    fn pair_block_impl(
         &self,
         pk: &crate::contact::SurfaceParam,
-        nk: &Vector3<f64>,
         pl: &crate::contact::SurfaceParam,
-        fl: &Vector3<f64>,
-    ) -> f64 {
+    ) -> Matrix3<f64> {
         use crate::contact::spline::cubic_basis;
         let n = self.n;
         let (uk, _, _) = cubic_basis(pk.u);
@@ -225,23 +232,22 @@ impl ControlFlexTable {
                 }
             }
         }
-        let mut acc = 0.0;
+        let mut out = Matrix3::zeros();
         for beta in 0..4 {
-            let clb = (pl.i + beta + n - 1) % n;
-            let (c, s) = self.cs[clb];
-            let nb = [c * nk.x + s * nk.y, -s * nk.x + c * nk.y, nk.z];
-            let fb = [c * fl.x + s * fl.y, -s * fl.x + c * fl.y, fl.z];
+            let mut mb = [0.0f64; 9];
             for alpha in 0..4 {
                 let m = &v[alpha + 3 - beta];
-                // Column-major 3×3 (nalgebra layout): m[r + 3 c].
-                let mut q = 0.0;
-                for r in 0..3 {
-                    q += nb[r] * (m[r] * fb[0] + m[r + 3] * fb[1] + m[r + 6] * fb[2]);
+                for e in 0..9 {
+                    mb[e] += uk[alpha] * m[e];
                 }
-                acc += uk[alpha] * ul[beta] * q;
             }
+            // Column-major 3×3 (nalgebra layout), in the frame of class clb: R mb Rᵀ.
+            let clb = (pl.i + beta + n - 1) % n;
+            let (c, s) = self.cs[clb];
+            let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+            out += (r * Matrix3::from_column_slice(&mb) * r.transpose()) * ul[beta];
         }
-        acc
+        out
     }
 
     /// `nᵀ HQ(a, b) f` for flat control indices `a`, `b` (global vectors).
@@ -402,6 +408,9 @@ mod tests {
                     (fast - explicit).abs() <= 1e-12 * explicit.abs().max(1e-30),
                     "{fast:e} vs {explicit:e}"
                 );
+                // Maxwell–Betti, which the contact matrix assembly relies on.
+                let (v, vt) = (tab.pair_block(pk, pl), tab.pair_block(pl, pk).transpose());
+                assert!((v - vt).norm() <= 1e-10 * v.norm(), "{v} vs {vt}");
             }
         }
     }

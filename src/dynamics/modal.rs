@@ -762,7 +762,7 @@ impl StructureKernel for ModalKernel {
 
 /// `y += A x` for a column-major `A` with `rows` rows (`x.len()` columns): four columns at a
 /// time so that each pass over `y` does four FMAs per element. AVX2/FMA code when available
-/// (runtime check), SSE2 otherwise; both compute the same sums in the same order.
+/// (runtime check, [`gemv_avx2`]), SSE2 otherwise; they agree to round-off.
 #[inline]
 pub fn gemv(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
@@ -778,7 +778,8 @@ pub fn gemv(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
 }
 
 /// `y = Aᵀ x` for a column-major `A` with `rows` rows (`y.len()` columns): four columns at a
-/// time with four lane accumulators each (a fixed summation order, whatever the SIMD width).
+/// time with four lane accumulators each. The AVX2 path fuses the multiply-adds, so it agrees
+/// with the portable one to round-off, not bitwise.
 #[inline]
 pub fn gemv_t(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
@@ -793,16 +794,97 @@ pub fn gemv_t(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
     gemv_t_impl(a, rows, x, y);
 }
 
+/// [`gemv`] with explicit AVX2/FMA: a band of `4K` rows of `y` stays in `K` registers while
+/// all columns stream through (independent FMA chains, one load per four products).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn gemv_avx2(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    gemv_impl(a, rows, x, y)
+    let cols = x.len();
+    assert!(a.len() >= rows * cols && y.len() >= rows);
+    let mut r = 0;
+    while r + 32 <= rows {
+        // SAFETY: rows r..r+32 of every column lie inside `a` and `y` (checked above).
+        unsafe { gemv_band::<8>(a, rows, x, y, r) };
+        r += 32;
+    }
+    while r + 4 <= rows {
+        // SAFETY: as above, rows r..r+4.
+        unsafe { gemv_band::<1>(a, rows, x, y, r) };
+        r += 4;
+    }
+    for rr in r..rows {
+        y[rr] += (0..cols).map(|p| a[p * rows + rr] * x[p]).sum::<f64>();
+    }
 }
 
+/// Rows `r0..r0 + 4K` of `y += A x` (see [`gemv_avx2`]).
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; `r0 + 4K ≤ rows`, `a.len() ≥ rows·x.len()`, `y.len() ≥ rows`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn gemv_band<const K: usize>(a: &[f64], rows: usize, x: &[f64], y: &mut [f64], r0: usize) {
+    use std::arch::x86_64::{_mm256_fmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_storeu_pd};
+    // SAFETY: the caller guarantees the bounds.
+    unsafe {
+        let mut acc = [_mm256_loadu_pd(y.as_ptr().add(r0)); K];
+        for (i, v) in acc.iter_mut().enumerate() {
+            *v = _mm256_loadu_pd(y.as_ptr().add(r0 + 4 * i));
+        }
+        for (p, &xp) in x.iter().enumerate() {
+            let xv = _mm256_set1_pd(xp);
+            let col = a.as_ptr().add(p * rows + r0);
+            for (i, v) in acc.iter_mut().enumerate() {
+                *v = _mm256_fmadd_pd(_mm256_loadu_pd(col.add(4 * i)), xv, *v);
+            }
+        }
+        for (i, v) in acc.iter().enumerate() {
+            _mm256_storeu_pd(y.as_mut_ptr().add(r0 + 4 * i), *v);
+        }
+    }
+}
+
+/// [`gemv_t`] with explicit AVX2/FMA: four columns at a time, one 4-row FMA accumulator per
+/// column (the compiler vectorises the portable loop across columns with gathers instead).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn gemv_t_avx2(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    gemv_t_impl(a, rows, x, y)
+    use std::arch::x86_64::{
+        __m256d, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+    };
+    let cols = y.len();
+    assert!(a.len() >= rows * cols && x.len() >= rows);
+    let body = rows - rows % 4;
+    let hsum = |v: __m256d| {
+        let mut t = [0.0f64; 4];
+        // SAFETY: `t` holds four f64.
+        unsafe { _mm256_storeu_pd(t.as_mut_ptr(), v) };
+        (t[0] + t[1]) + (t[2] + t[3])
+    };
+    let mut p = 0;
+    while p < cols {
+        let width = (cols - p).min(4);
+        let mut acc = [_mm256_setzero_pd(); 4];
+        let mut r = 0;
+        while r < body {
+            // SAFETY: r + 4 ≤ rows and (p + j) < cols, so every load is inside `x` and `a`
+            // (length checked above).
+            unsafe {
+                let xv = _mm256_loadu_pd(x.as_ptr().add(r));
+                for (j, aj) in acc.iter_mut().enumerate().take(width) {
+                    let c = _mm256_loadu_pd(a.as_ptr().add((p + j) * rows + r));
+                    *aj = _mm256_fmadd_pd(c, xv, *aj);
+                }
+            }
+            r += 4;
+        }
+        for j in 0..width {
+            let col = &a[(p + j) * rows..(p + j + 1) * rows];
+            let tail: f64 = (body..rows).map(|r| col[r] * x[r]).sum();
+            y[p + j] = hsum(acc[j]) + tail;
+        }
+        p += width;
+    }
 }
 
 #[inline(always)]
@@ -993,7 +1075,16 @@ mod gemv_tests {
     /// Both GEMVs against the plain triple loop, for sizes with and without remainders.
     #[test]
     fn gemv_and_transpose_match_the_naive_products() {
-        for (rows, cols) in [(1, 1), (3, 5), (15, 25), (30, 50), (7, 9)] {
+        for (rows, cols) in [
+            (1, 1),
+            (3, 5),
+            (15, 25),
+            (30, 50),
+            (7, 9),
+            (32, 25),
+            (36, 6),
+            (16, 3),
+        ] {
             let a: Vec<f64> = (0..rows * cols)
                 .map(|i| ((i * 37 % 101) as f64 - 50.0) / 7.0)
                 .collect();

@@ -529,8 +529,12 @@ pub fn simulate(
                 }
                 if let Some(tc) = tab_c.as_ref() {
                     for (k, a) in cands.iter().enumerate() {
-                        for (l, b) in cands.iter().enumerate() {
-                            w[k * nk + l] += tc.pair(&a.param, &a.n, &b.param, &b.fdir);
+                        for (l, b) in cands.iter().enumerate().skip(k) {
+                            let v = tc.pair_block(&a.param, &b.param);
+                            w[k * nk + l] += a.n.dot(&(v * b.fdir));
+                            if l != k {
+                                w[l * nk + k] += b.n.dot(&(v.transpose() * a.fdir));
+                            }
                         }
                     }
                 }
