@@ -10,7 +10,7 @@
 //! `n`-lobe wave of angular frequency `n Ω − ω_b(Ω)` for every `n ≥ 1` with
 //! `n ≡ ±k (mod N_b)` (aliasing: the blades cannot tell `k` from `jN_b ± k` lobes). The
 //! critical speeds `Ω*` of casing mode `q` with `n` nodal diameters solve
-//! `n Ω − ω_b,p(Ω) = ω_c,q` (paper [1]), with `k = min(n mod N_b, N_b − n mod N_b)`.
+//! `n Ω − ω_b,p(Ω) = ω_c,q` (paper \[1\]), with `k = min(n mod N_b, N_b − n mod N_b)`.
 //!
 //! `ω_b,p(Ω)` is interpolated on the impeller's speed grid as a function of `Ω²`
 //! (piecewise linear, or natural cubic spline); roots are searched only inside the grid

@@ -156,17 +156,13 @@ pub fn bench_default_models(
     omega: f64,
     steps: usize,
 ) -> anyhow::Result<BenchResult> {
-    let depth = std::env::var("BENCH_DEPTH")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1.5);
     use crate::model::build::{CasingSpec, ImpellerSpec};
     let imp = crate::app::impeller_rom(&ImpellerSpec::default())?;
     let cas = crate::app::casing_rom(&CasingSpec::default())?;
     let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap_or(0) + 1;
     let mut offs = vec![0.0; rows];
     if contact {
-        offs[rows / 2] = depth * radial_clearance(&imp, &cas, rows / 2).max(0.0);
+        offs[rows / 2] = 1.5 * radial_clearance(&imp, &cas, rows / 2).max(0.0);
     }
     Ok(bench_with_offsets(&imp, &cas, omega, kernel, offs, steps)?)
 }

@@ -9,13 +9,18 @@
 //! once); boundary forces go the other way. No allocation per step.
 //!
 //! # Speed
-//! The per-ND products are small dense GEMVs over the column-major boundary rows Φ_b,k
-//! ([`gemv`], [`gemv_t`]: four columns at a time, lane accumulators, AVX2 when the CPU has it).
-//! A correction is fused per nodal diameter: `Δη_k = diag(1/a) Φ_b,kᵀ F_k` and
-//! `ΔU_k = Φ_b,k Δη_k` while Φ_b,k is still in L1, added to the kept spectrum of the
-//! predicted boundary, then one inverse real DFT per boundary channel. So a contact step reads
-//! each Φ_b,k from memory twice (predict, correct) instead of three times.
-
+//! - **Half the basis.** A complex harmonic's real form commutes with `J = [[0, −I], [I, 0]]`,
+//!   so its eigenvectors are stored as J-pairs and only one vector per pair is kept
+//!   (`paired_modes`): the casing bases (51 harmonics × 32 padded rows × 25 columns) take
+//!   326 KB instead of 612 KB, i.e. they fit in L2.
+//! - **Spline folded in** ([`ModalKernel::fold_spline`], casing only): the channels are the
+//!   spline's control points (eq. 13 per nodal diameter), so no spline solve per step.
+//! - **One pass per contact step.** [`StructureKernel::correct_then_predict`] does, per nodal
+//!   diameter while its basis is in L1: `Δη_k = diag(1/a) Φ_b,kᵀ F_k`, `ΔU_k = Φ_b,k Δη_k`
+//!   (added to the kept spectrum of the predicted channels) and the next step's predictor
+//!   `Φ_b,k η*_{n+2,k}`; then one inverse real DFT per channel for each.
+//! - The per-ND products are small GEMVs ([`gemv`], [`gemv_t`]: explicit AVX2/FMA code when the
+//!   CPU has it, a portable four-column loop otherwise).
 use crate::contact::CasingSpline;
 use crate::dynamics::kernel::{Energies, StructureKernel};
 use crate::dynamics::structure::{NdBlock, Structure, StructureError};
@@ -28,7 +33,7 @@ struct Block {
     offset: usize,
     /// Real-form order: `n` (real harmonic) or `2n`.
     dim: usize,
-    /// Stored basis columns `n` (one per complex mode pair, see [`paired_modes`]).
+    /// Stored basis columns `n` (one per complex mode pair, see `paired_modes`).
     n: usize,
     real: bool,
     /// DFT weight w_k.
@@ -104,7 +109,7 @@ pub struct ModalKernel {
 
 impl ModalKernel {
     /// Builds the kernel for `st` with time step `h` (s); `h` is checked by the caller. Fails
-    /// only if the eigenvectors of a complex harmonic cannot be paired (see [`paired_modes`]).
+    /// only if the eigenvectors of a complex harmonic cannot be paired (see `paired_modes`).
     pub fn new(st: &Structure, h: f64) -> Result<Self, StructureError> {
         let ns = st.n_sectors;
         let nb = st.n_boundary;
@@ -583,7 +588,7 @@ fn surface_harmonics(
         .collect())
 }
 
-/// The re-paired eigenbasis of a complex harmonic (see [`paired_modes`]).
+/// The re-paired eigenbasis of a complex harmonic (see `paired_modes`).
 struct PairedBasis {
     /// `[v_1 … v_n, Jv_1 … Jv_n]`, M-orthonormal.
     modes: DMatrix<f64>,
@@ -762,7 +767,7 @@ impl StructureKernel for ModalKernel {
 
 /// `y += A x` for a column-major `A` with `rows` rows (`x.len()` columns): four columns at a
 /// time so that each pass over `y` does four FMAs per element. AVX2/FMA code when available
-/// (runtime check, [`gemv_avx2`]), SSE2 otherwise; they agree to round-off.
+/// (runtime check, `gemv_avx2`), SSE2 otherwise; they agree to round-off.
 #[inline]
 pub fn gemv(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]

@@ -1,6 +1,7 @@
 //! The time loop (paper Fig. 4): predict both structures, rebuild the casing spline from the
-//! predicted casing contact nodes, project every blade-tip node, and when some gap is
-//! negative solve the contact problem and correct both structures.
+//! predicted casing contact nodes (the fast kernel gives its control points directly, see
+//! `CasingFrames`), project every blade-tip node, and when some gap is negative solve the
+//! contact problem and correct both structures.
 
 use crate::contact::spline::cubic_basis;
 use crate::contact::{CasingSpline, Projection, SurfaceParam, friction_direction, project_nodes};

@@ -278,7 +278,7 @@ impl MeshBuilder {
     }
 
     /// Adds a structured block of `n[0]×n[1]×n[2]` Hex20 elements: `map` sends logical
-    /// coordinates s ∈ [0,1]³ to space. Element orientation is flipped where needed so that
+    /// coordinates s ∈ \[0,1\]³ to space. Element orientation is flipped where needed so that
     /// every Jacobian is positive at the element centre.
     pub fn add_block(&mut self, n: [usize; 3], map: impl Fn([f64; 3]) -> [f64; 3]) -> BlockNodes {
         let dims = n.map(|k| 2 * k + 1);
