@@ -129,6 +129,32 @@ pub fn cubic_basis(t: f64) -> (Vector4<f64>, Vector4<f64>, Vector4<f64>) {
     (b, d, dd)
 }
 
+/// Weights on the *real* control rows `1..=M` of a patch's four meridional basis values
+/// `cv` (control rows `j..j+4`, paper eq. 13): the ghost rows are folded back by eq. (10),
+/// `Q[c][0] = 2Q[c][1] − Q[c][2]`, `Q[c][M+1] = 2Q[c][M] − Q[c][M−1]`. Returns the first
+/// real row (0-based: real row `r` is control row `r + 1`) of a window of `min(4, M)` rows and
+/// the weights in it. `Σ w_r Q[c][r+1] = Σ_b cv_b Q[c][j+b]` for any control net.
+pub fn real_row_weights(j: usize, cv: &Vector4<f64>, m: usize) -> (usize, [f64; 4]) {
+    let len = m.min(4);
+    let start = (j.max(1) - 1).min(m - len);
+    let mut w = [0.0; 4];
+    let mut put = |row: usize, x: f64| w[row - start] += x;
+    for (b, &c) in cv.iter().enumerate() {
+        match j + b {
+            0 => {
+                put(0, 2.0 * c);
+                put(1, -c);
+            }
+            k if k == m + 1 => {
+                put(m - 1, 2.0 * c);
+                put(m - 2, -c);
+            }
+            k => put(k - 1, c),
+        }
+    }
+    (start, w)
+}
+
 /// The closed casing spline operator for `N` sectors and `M` contact nodes per sector.
 ///
 /// Holds only what depends on `(N, M)` (eq. 5 is independent of the node
@@ -619,6 +645,38 @@ fn thomas_solve_scalar(mult: &[f64], x: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Folded weights reproduce the meridional combination of every patch row window,
+    /// ghost rows included, on control nets built by `control_points` (which applies eq. 10).
+    #[test]
+    fn real_row_weights_fold_the_ghost_rows() {
+        for m in 2..=6 {
+            let n = 5;
+            let sp = CasingSpline::new(n, m).unwrap();
+            let nodes: Vec<Vector3<f64>> = (0..n * m)
+                .map(|k| Vector3::new((k as f64).sin(), (k as f64 * 0.7).cos(), k as f64 * 0.1))
+                .collect();
+            let mut q = vec![Vector3::zeros(); sp.n_control()];
+            sp.control_points(&nodes, &mut q).unwrap();
+            for j in 0..m - 1 {
+                for v in [0.0, 0.3, 1.0] {
+                    let (cv, _, _) = cubic_basis(v);
+                    let (start, w) = real_row_weights(j, &cv, m);
+                    for c in 0..n + 3 {
+                        let direct: Vector3<f64> =
+                            (0..4).map(|b| q[sp.control_index(c, j + b)] * cv[b]).sum();
+                        let folded: Vector3<f64> = (0..m.min(4))
+                            .map(|r| q[sp.control_index(c, start + r + 1)] * w[r])
+                            .sum();
+                        assert!(
+                            (direct - folded).norm() < 1e-12,
+                            "M = {m}, j = {j}, v = {v}"
+                        );
+                    }
+                }
+            }
+        }
+    }
     use nalgebra::Rotation3;
     use std::f64::consts::PI;
 

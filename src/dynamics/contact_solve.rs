@@ -67,37 +67,38 @@ impl NodeFlexTable {
     }
 }
 
-/// Control-point flexibility of the flexible casing: the displacement (global frame) of
-/// control point `Q[c1][k1]` per unit force (global) on `Q[c2][k2]`, both transmitted through
-/// `Q = B P`. Rotationally covariant: with `cl = (c − 1) mod N` the class of a column (centred
-/// on angle `cl·α`), `HQ = R(cl₂ α) T[(cl₁ − cl₂) mod N][k1][k2] R(cl₂ α)ᵀ`.
+/// Control-point flexibility of the flexible casing on the real control rows `Q[c][1..=M]`
+/// (the ghost rows are combinations of them, eq. 10, see
+/// [`crate::contact::spline::real_row_weights`]): the displacement (global frame) of
+/// `Q[c1][k1]` per unit force (global) on `Q[c2][k2]`, both transmitted through `Q = B P`.
+/// Rotationally covariant: with `cl = (c − 1) mod N` the class of a column (centred on angle
+/// `cl·α`), `HQ = R(cl₂ α) T[(cl₁ − cl₂) mod N][k1−1][k2−1] R(cl₂ α)ᵀ`.
 #[derive(Clone, Debug)]
 pub struct ControlFlexTable {
     n: usize,
-    w: usize,
-    data: Vec<Matrix3<f64>>,
-    /// The same blocks as plain column-major arrays (hot loop of [`ControlFlexTable::pair`]).
+    m: usize,
+    /// `T` as column-major 3×3 arrays, index `(d·M + r1)·M + r2` (hot loop of
+    /// [`ControlFlexTable::pair_block`]).
     flat: Vec<[f64; 9]>,
     /// cos, sin of cl·α per class.
     cs: Vec<(f64, f64)>,
 }
 
 impl ControlFlexTable {
-    /// Builds `T` by probing the casing kernel with `3 (M+2)` unit control-point forces on column 1.
+    /// Builds `T` by probing the casing kernel with `3M` unit control-point forces on column 1.
     pub fn build(kernel: &mut dyn StructureKernel, spline: &CasingSpline) -> Self {
         let (n, m) = (spline.n_sectors(), spline.nodes_per_sector());
-        let w = m + 2;
         let nb = kernel.n_boundary();
         let alpha = 2.0 * std::f64::consts::PI / n as f64;
         let b = spline.b_matrix();
         let rots: Vec<Matrix3<f64>> = (0..n).map(|i| rot_z(i as f64 * alpha)).collect();
-        let mut data = vec![Matrix3::zeros(); n * w * w];
+        let mut flat = vec![[0.0; 9]; n * m * m];
         let mut f = vec![0.0; n * nb];
         let mut out = vec![0.0; n * nb];
         let mut disp = vec![Vector3::zeros(); n * m];
         let mut dq = vec![Vector3::zeros(); spline.n_control()];
-        for k2 in 0..w {
-            let row = spline.control_index(1, k2);
+        for r2 in 0..m {
+            let row = spline.control_index(1, r2 + 1);
             for d2 in 0..3 {
                 let mut e = Vector3::zeros();
                 e[d2] = 1.0;
@@ -125,10 +126,11 @@ impl ControlFlexTable {
                     .control_points(&disp, &mut dq)
                     .expect("sizes fixed by the spline");
                 for cl1 in 0..n {
-                    for k1 in 0..w {
-                        let v = dq[spline.control_index(cl1 + 1, k1)];
+                    for r1 in 0..m {
+                        let v = dq[spline.control_index(cl1 + 1, r1 + 1)];
                         for d1 in 0..3 {
-                            data[(cl1 * w + k1) * w + k2][(d1, d2)] = v[d1];
+                            // Column-major: entry (d1, d2) at d1 + 3 d2.
+                            flat[(cl1 * m + r1) * m + r2][d1 + 3 * d2] = v[d1];
                         }
                     }
                 }
@@ -138,21 +140,7 @@ impl ControlFlexTable {
             .map(|c| (c as f64 * alpha).sin_cos())
             .map(|(s, c)| (c, s))
             .collect();
-        let flat = data
-            .iter()
-            .map(|m| {
-                let mut a = [0.0; 9];
-                a.copy_from_slice(m.as_slice());
-                a
-            })
-            .collect();
-        Self {
-            n,
-            w,
-            data,
-            flat,
-            cs,
-        }
+        Self { n, m, flat, cs }
     }
 
     /// Casing contribution to `W` of the pair (k, l): `n_kᵀ V(k, l) f_l`, see
@@ -206,29 +194,28 @@ impl ControlFlexTable {
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
     ) -> Matrix3<f64> {
-        use crate::contact::spline::cubic_basis;
-        let n = self.n;
+        use crate::contact::spline::{cubic_basis, real_row_weights};
+        let (n, m) = (self.n, self.m);
+        let len = m.min(4);
         let (uk, _, _) = cubic_basis(pk.u);
         let (vk, _, _) = cubic_basis(pk.v);
         let (ul, _, _) = cubic_basis(pl.u);
         let (vl, _, _) = cubic_basis(pl.v);
+        let (sk, wk) = real_row_weights(pk.j, &vk, m);
+        let (sl, wl) = real_row_weights(pl.j, &vl, m);
         // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ (plain arrays: this is the hot loop).
-        let mut wgt = [[0.0f64; 4]; 4];
-        for a in 0..4 {
-            for b in 0..4 {
-                wgt[a][b] = vk[a] * vl[b];
-            }
-        }
         let mut v = [[0.0f64; 9]; 7];
         for (di, vd) in v.iter_mut().enumerate() {
             let d = (pk.i + n * 4 + di - 3 - pl.i) % n;
-            for (a, wa) in wgt.iter().enumerate() {
-                let base = (d * self.w + pk.j + a) * self.w + pl.j;
-                // The four blocks b = 0..4 are contiguous: one 36-entry row of the table.
-                let t = &self.flat[base..base + 4];
-                for e in 0..9 {
-                    vd[e] +=
-                        (wa[0] * t[0][e] + wa[1] * t[1][e]) + (wa[2] * t[2][e] + wa[3] * t[3][e]);
+            for (a, wa) in wk.iter().enumerate().take(len) {
+                let base = (d * m + sk + a) * m + sl;
+                // The blocks b = 0..len are contiguous: one row of the table.
+                let t = &self.flat[base..base + len];
+                for (tb, wb) in t.iter().zip(&wl) {
+                    let w = wa * wb;
+                    for e in 0..9 {
+                        vd[e] += w * tb[e];
+                    }
                 }
             }
         }
@@ -250,19 +237,37 @@ impl ControlFlexTable {
         out
     }
 
-    /// `nᵀ HQ(a, b) f` for flat control indices `a`, `b` (global vectors).
-    #[inline]
+    /// `nᵀ HQ(a, b) f` for flat control indices `a`, `b` (global vectors), ghost rows included
+    /// (through eq. 10). A reference for tests: one control-point pair at a time.
     pub fn bilinear(&self, a: usize, b: usize, nvec: &Vector3<f64>, fvec: &Vector3<f64>) -> f64 {
-        let (ca, ka) = (a / self.w, a % self.w);
-        let (cb, kb) = (b / self.w, b % self.w);
+        let w = self.m + 2;
+        let (ca, ka) = (a / w, a % w);
+        let (cb, kb) = (b / w, b % w);
         let cla = (ca + self.n - 1) % self.n;
         let clb = (cb + self.n - 1) % self.n;
         let (c, s) = self.cs[clb];
         // R(φ)ᵀ v
         let nl = Vector3::new(c * nvec.x + s * nvec.y, -s * nvec.x + c * nvec.y, nvec.z);
         let fl = Vector3::new(c * fvec.x + s * fvec.y, -s * fvec.x + c * fvec.y, fvec.z);
-        let t = &self.data[(((cla + self.n - clb) % self.n) * self.w + ka) * self.w + kb];
-        nl.dot(&(t * fl))
+        let d = (cla + self.n - clb) % self.n;
+        let mut acc = 0.0;
+        for (r1, w1) in self.real_rows(ka) {
+            for (r2, w2) in self.real_rows(kb) {
+                let t = Matrix3::from_column_slice(&self.flat[(d * self.m + r1) * self.m + r2]);
+                acc += w1 * w2 * nl.dot(&(t * fl));
+            }
+        }
+        acc
+    }
+
+    /// Control row `k` as a combination of real rows (0-based), eq. (10).
+    fn real_rows(&self, k: usize) -> Vec<(usize, f64)> {
+        let m = self.m;
+        match k {
+            0 => vec![(0, 2.0), (1, -1.0)],
+            k if k == m + 1 => vec![(m - 1, 2.0), (m - 2, -1.0)],
+            k => vec![(k - 1, 1.0)],
+        }
     }
 }
 

@@ -3,7 +3,7 @@
 //! `CasingFrames`), project every blade-tip node, and when some gap is negative solve the
 //! contact problem and correct both structures.
 
-use crate::contact::spline::cubic_basis;
+use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{CasingSpline, Projection, SurfaceParam, friction_direction, project_nodes};
 use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve, rot_z};
@@ -1136,7 +1136,7 @@ impl CasingFrames {
     /// Adds the casing share of a global force `f` (N) applied at the spline point `param` to
     /// the casing load `fc` in the kernel's channels (eq. 18): on the 16 control points of the
     /// patch with weights `N_a(u) N_b(v)` (ghost rows folded back by the transpose of eq. 10,
-    /// sector-local frames), or on the contact nodes through `B̂ c` (global frame until
+    /// [`real_row_weights`]; sector-local frames), or on the contact nodes through `B̂ c` (global frame until
     /// [`CasingFrames::finish_forces`]). `wu`, `wv`: scratch of lengths N and M.
     fn add_force(
         &self,
@@ -1153,25 +1153,13 @@ impl CasingFrames {
         let nb = 3 * m;
         let (cu, _, _) = cubic_basis(param.u);
         let (cv, _, _) = cubic_basis(param.v);
+        let (start, wv) = real_row_weights(param.j, &cv, m);
         for (a, wa) in cu.iter().enumerate() {
             let cl = (param.i + a + n - 1) % n;
             let fl = self.rot[cl].transpose() * f * *wa;
-            let mut put = |row: usize, w: f64| {
+            for (r, w) in wv.iter().enumerate().take(m.min(4)) {
                 for d in 0..3 {
-                    fc[cl * nb + 3 * row + d] += w * fl[d];
-                }
-            };
-            for (b, &wb) in cv.iter().enumerate() {
-                match param.j + b {
-                    0 => {
-                        put(0, 2.0 * wb);
-                        put(1, -wb);
-                    }
-                    k if k == m + 1 => {
-                        put(m - 1, 2.0 * wb);
-                        put(m - 2, -wb);
-                    }
-                    k => put(k - 1, wb),
+                    fc[cl * nb + 3 * (start + r) + d] += w * fl[d];
                 }
             }
         }
