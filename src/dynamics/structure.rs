@@ -80,14 +80,6 @@ pub struct NdBlock {
     pub offset: usize,
 }
 
-impl NdBlock {
-    /// Row indices (in the real form) of the boundary DOFs: `0..nb` and, if complex, `n..n+nb`.
-    pub fn boundary_rows(&self, nb: usize) -> impl Iterator<Item = usize> + '_ {
-        let n = self.n;
-        (0..nb).chain(if self.real { 0..0 } else { n..n + nb })
-    }
-}
-
 /// A cyclic ROM at one rotation speed, ready for time integration.
 #[derive(Clone, Debug)]
 pub struct Structure {
