@@ -1234,13 +1234,11 @@ mod tests {
     use crate::model::rom::{Component, ContactNode, Damping, HarmonicBlock, HermitianMatrix};
     use nalgebra::DMatrix;
 
-    /// The casing share of a contact force is a partition of `f` over the data points: rotated
-    /// back to the global frame the node forces sum to `f` (the spline weights sum to 1).
+    /// Virtual work: for any channel displacement δ, the load of a point force f satisfies
+    /// Σ F·δ = f·δS(param), in both channel modes, patches touching the ghost rows and the
+    /// closing line included. δS comes from CasingFrames::control_points (the forward map).
     #[test]
     fn casing_loads_are_the_transpose_of_the_surface_map() {
-        // Virtual work: for any channel displacement δ, the load of a point force f satisfies
-        // Σ F·δ = f·δS(param), in both channel modes, patches touching the ghost rows and the
-        // closing line included. δS comes from CasingFrames::control_points (the forward map).
         let (n, m) = (7, 4);
         let sp = CasingSpline::new(n, m).unwrap();
         let rot: Vec<Matrix3<f64>> = (0..n)
@@ -1281,6 +1279,8 @@ mod tests {
         }
     }
 
+    /// The casing share of a contact force is a partition of `f` over the data points: rotated
+    /// back to the global frame the node forces sum to `f` (the spline weights sum to 1).
     #[test]
     fn casing_force_distribution_sums_to_the_contact_force() {
         let (n, m) = (8, 3);
