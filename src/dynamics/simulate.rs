@@ -4,7 +4,9 @@
 //! contact problem and correct both structures.
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
-use crate::contact::{CasingSpline, Projection, SurfaceParam, friction_direction, project_nodes};
+use crate::contact::{
+    CasingSpline, NodeProjectionError, Projection, SurfaceParam, friction_direction, project_nodes,
+};
 use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve, rot_z};
 use crate::dynamics::dense::DenseKernel;
@@ -419,14 +421,13 @@ pub fn simulate(
         }
         stages.lap(Stage::Spline);
         // 3. Blade-tip nodes and closest points.
+        let projection_failed = |e: NodeProjectionError| SimError::Projection {
+            time: t1,
+            reason: e.to_string(),
+        };
         let r_om = rot_z(case.omega * t1);
         fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-        project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj).map_err(|e| {
-            SimError::Projection {
-                time: t1,
-                reason: e.to_string(),
-            }
-        })?;
+        project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj).map_err(projection_failed)?;
         // 3b. Abradable coating (paper Fig. 11): known coating forces first, then re-projection so
         // that the Lagrange problem below sees them in its predicted gaps.
         if let Some(cs) = coat.as_mut() {
@@ -447,12 +448,8 @@ pub fn simulate(
                     casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
                 }
                 fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-                project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj).map_err(|e| {
-                    SimError::Projection {
-                        time: t1,
-                        reason: e.to_string(),
-                    }
-                })?;
+                project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj)
+                    .map_err(projection_failed)?;
                 cs.flag_penetrations(nci, &proj)?;
             }
         }
@@ -624,10 +621,7 @@ pub fn simulate(
                     eps,
                     &mut res_proj,
                 )
-                .map_err(|e| SimError::Projection {
-                    time: t1,
-                    reason: e.to_string(),
-                })?;
+                .map_err(projection_failed)?;
                 window_residual = window_residual.max(-res_proj[0].gap);
             }
             if window_residual > 1e-4 * radius_scale.max(1e-3) {
