@@ -645,6 +645,9 @@ fn thomas_solve_scalar(mult: &[f64], x: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::synthetic::Lcg;
+    use nalgebra::Rotation3;
+    use std::f64::consts::PI;
 
     /// Folded weights reproduce the meridional combination of every patch row window,
     /// ghost rows included, on control nets built by `control_points` (which applies eq. 10).
@@ -675,20 +678,6 @@ mod tests {
                     }
                 }
             }
-        }
-    }
-    use nalgebra::Rotation3;
-    use std::f64::consts::PI;
-
-    /// Tiny deterministic generator in [−1, 1): tests need no rand crate.
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         }
     }
 

@@ -85,10 +85,10 @@ impl SyntheticSpec {
     }
 }
 
-/// Deterministic pseudo-random numbers in [−1, 1] (fixture only).
-struct Lcg(u64);
+/// Deterministic pseudo-random numbers in [−1, 1) (fixtures and tests: no rand crate).
+pub(crate) struct Lcg(pub(crate) u64);
 impl Lcg {
-    fn next(&mut self) -> f64 {
+    pub(crate) fn next(&mut self) -> f64 {
         self.0 = self
             .0
             .wrapping_mul(6364136223846793005)
