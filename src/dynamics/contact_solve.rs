@@ -77,9 +77,10 @@ impl NodeFlexTable {
 pub struct ControlFlexTable {
     n: usize,
     m: usize,
-    /// `T` as column-major 3×3 arrays, index `(d·M + r1)·M + r2` (hot loop of
-    /// [`ControlFlexTable::pair_block`]).
-    flat: Vec<[f64; 9]>,
+    /// `T` as column-major 3×3 arrays padded with 3 zeros to three AVX lanes of 4, index
+    /// `(d·S + r1)·S + r2` with `S = max(M, 4)` (rows `≥ M` are zero, so that the hot loop of
+    /// [`ControlFlexTable::pair_block`] always spans 4 × 4 rows).
+    flat: Vec<[f64; 12]>,
     /// cos, sin of cl·α per class.
     cs: Vec<(f64, f64)>,
 }
@@ -92,7 +93,8 @@ impl ControlFlexTable {
         let alpha = 2.0 * std::f64::consts::PI / n as f64;
         let b = spline.b_matrix();
         let rots: Vec<Matrix3<f64>> = (0..n).map(|i| rot_z(i as f64 * alpha)).collect();
-        let mut flat = vec![[0.0; 9]; n * m * m];
+        let st = m.max(4);
+        let mut flat = vec![[0.0; 12]; n * st * st];
         let mut f = vec![0.0; n * nb];
         let mut out = vec![0.0; n * nb];
         let mut disp = vec![Vector3::zeros(); n * m];
@@ -130,7 +132,7 @@ impl ControlFlexTable {
                         let v = dq[spline.control_index(cl1 + 1, r1 + 1)];
                         for d1 in 0..3 {
                             // Column-major: entry (d1, d2) at d1 + 3 d2.
-                            flat[(cl1 * m + r1) * m + r2][d1 + 3 * d2] = v[d1];
+                            flat[(cl1 * st + r1) * st + r2][d1 + 3 * d2] = v[d1];
                         }
                     }
                 }
@@ -175,7 +177,7 @@ impl ControlFlexTable {
                 return unsafe { self.pair_block_avx2(pk, pl) };
             }
         }
-        self.pair_block_impl(pk, pl)
+        self.pair_block_impl::<false>(pk, pl)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -185,54 +187,63 @@ impl ControlFlexTable {
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
     ) -> Matrix3<f64> {
-        self.pair_block_impl(pk, pl)
+        self.pair_block_impl::<true>(pk, pl)
     }
 
+    /// With `FMA`, the products are fused multiply-adds (Rust never contracts `a * b + c`
+    /// itself); without, they are plain products and sums (no slow software `fma`).
     #[inline(always)]
-    fn pair_block_impl(
+    fn pair_block_impl<const FMA: bool>(
         &self,
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
     ) -> Matrix3<f64> {
         use crate::contact::spline::{cubic_basis, real_row_weights};
         let (n, m) = (self.n, self.m);
-        let len = m.min(4);
+        let st = m.max(4);
         let (uk, _, _) = cubic_basis(pk.u);
         let (vk, _, _) = cubic_basis(pk.v);
         let (ul, _, _) = cubic_basis(pl.u);
         let (vl, _, _) = cubic_basis(pl.v);
         let (sk, wk) = real_row_weights(pk.j, &vk, m);
         let (sl, wl) = real_row_weights(pl.j, &vl, m);
-        // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ (plain arrays: this is the hot loop).
-        let mut v = [[0.0f64; 9]; 7];
+        // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ (plain fixed-size arrays: this is
+        // the hot loop, and 12-wide blocks vectorise into three AVX lanes). One accumulator per
+        // meridian row `a` keeps the FMA chains independent.
+        let mut v = [[0.0f64; 12]; 7];
         for (di, vd) in v.iter_mut().enumerate() {
             let d = (pk.i + n * 4 + di - 3 - pl.i) % n;
-            for (a, wa) in wk.iter().enumerate().take(len) {
-                let base = (d * m + sk + a) * m + sl;
-                // The blocks b = 0..len are contiguous: one row of the table.
-                let t = &self.flat[base..base + len];
-                for (tb, wb) in t.iter().zip(&wl) {
-                    let w = wa * wb;
-                    for e in 0..9 {
-                        vd[e] += w * tb[e];
+            let mut acc = [[0.0f64; 12]; 4];
+            for (a, acc_a) in acc.iter_mut().enumerate() {
+                let base = (d * st + sk + a) * st + sl;
+                // The blocks b = 0..4 are contiguous: one row of the table (weights beyond the
+                // real rows are zero).
+                for (tb, wb) in self.flat[base..base + 4].iter().zip(&wl) {
+                    for e in 0..12 {
+                        acc_a[e] = madd::<FMA>(*wb, tb[e], acc_a[e]);
                     }
+                }
+            }
+            for (acc_a, wa) in acc.iter().zip(&wk) {
+                for e in 0..12 {
+                    vd[e] = madd::<FMA>(*wa, acc_a[e], vd[e]);
                 }
             }
         }
         let mut out = Matrix3::zeros();
         for beta in 0..4 {
-            let mut mb = [0.0f64; 9];
+            let mut mb = [0.0f64; 12];
             for alpha in 0..4 {
                 let m = &v[alpha + 3 - beta];
-                for e in 0..9 {
-                    mb[e] += uk[alpha] * m[e];
+                for e in 0..12 {
+                    mb[e] = madd::<FMA>(uk[alpha], m[e], mb[e]);
                 }
             }
             // Column-major 3×3 (nalgebra layout), in the frame of class clb: R mb Rᵀ.
             let clb = (pl.i + beta + n - 1) % n;
             let (c, s) = self.cs[clb];
             let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
-            out += (r * Matrix3::from_column_slice(&mb) * r.transpose()) * ul[beta];
+            out += (r * Matrix3::from_column_slice(&mb[..9]) * r.transpose()) * ul[beta];
         }
         out
     }
@@ -253,7 +264,8 @@ impl ControlFlexTable {
         let mut acc = 0.0;
         for (r1, w1) in self.real_rows(ka) {
             for (r2, w2) in self.real_rows(kb) {
-                let t = Matrix3::from_column_slice(&self.flat[(d * self.m + r1) * self.m + r2]);
+                let st = self.m.max(4);
+                let t = Matrix3::from_column_slice(&self.flat[(d * st + r1) * st + r2][..9]);
                 acc += w1 * w2 * nl.dot(&(t * fl));
             }
         }
@@ -269,6 +281,12 @@ impl ControlFlexTable {
             k => vec![(k - 1, 1.0)],
         }
     }
+}
+
+/// `a·b + c`, fused when `FMA` (callers compiled with the `fma` target feature).
+#[inline(always)]
+fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
+    if FMA { a.mul_add(b, c) } else { a * b + c }
 }
 
 /// Solves `W_AA λ_A = −d_A` on an active set that starts with every candidate and drops the
