@@ -5,7 +5,7 @@ pub mod projection;
 pub mod spline;
 
 pub use projection::{
-    DEFAULT_EPS_NR, NodeProjectionError, Projection, ProjectionError, closest_point,
+    DEFAULT_EPS_NR, GapBounds, NodeProjectionError, Projection, ProjectionError, closest_point,
     friction_direction, project_nodes,
 };
 pub use spline::{CasingSpline, PatchEval, SplineError, SurfaceParam};

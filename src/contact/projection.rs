@@ -240,21 +240,7 @@ pub fn project_nodes(
     eps_nr: f64,
     out: &mut [Projection],
 ) -> Result<(), NodeProjectionError> {
-    let len_err = |what, expected, got| NodeProjectionError {
-        node: 0,
-        source: SplineError::LengthMismatch {
-            what,
-            expected,
-            got,
-        }
-        .into(),
-    };
-    if warm.len() != xs.len() {
-        return Err(len_err("warm starts", xs.len(), warm.len()));
-    }
-    if out.len() != xs.len() {
-        return Err(len_err("projections", xs.len(), out.len()));
-    }
+    check_lengths(xs.len(), warm.len(), out.len())?;
     for (node, ((x, w), o)) in xs
         .iter()
         .zip(warm.iter_mut())
@@ -267,6 +253,109 @@ pub fn project_nodes(
         *o = p;
     }
     Ok(())
+}
+
+/// Fails, naming the buffer, unless the warm starts and results match the nodes in length.
+fn check_lengths(nodes: usize, warm: usize, out: usize) -> Result<(), NodeProjectionError> {
+    let len_err = |what, got| NodeProjectionError {
+        node: 0,
+        source: SplineError::LengthMismatch {
+            what,
+            expected: nodes,
+            got,
+        }
+        .into(),
+    };
+    if warm != nodes {
+        return Err(len_err("warm starts", warm));
+    }
+    if out != nodes {
+        return Err(len_err("projections", out));
+    }
+    Ok(())
+}
+
+/// Conservative lower bounds on the gaps of nodes between their projections, so that nodes
+/// far from the casing need not be projected every step ([`GapBounds::project_near`]).
+///
+/// The signed distance to a surface is 1-Lipschitz in the point, and a point of a B-spline
+/// surface moves by at most the largest displacement of its control points (the basis
+/// functions are non-negative and sum to one: the convex-hull property). So a node projected
+/// at `x₀` with gap `d₀` has now, at `x`, a gap `d ≥ d₀ − |x − x₀| − D`, where `D` sums the
+/// largest control-point displacement of every surface update since.
+#[derive(Clone, Debug)]
+pub struct GapBounds {
+    /// Gap (m), position and cumulative surface drift (m) at each node's last projection.
+    gap: Vec<f64>,
+    x: Vec<Vector3<f64>>,
+    drift_then: Vec<f64>,
+    /// Cumulative surface drift (m) and the control points it was last measured on.
+    drift: f64,
+    q_last: Vec<Vector3<f64>>,
+}
+
+impl GapBounds {
+    /// No bound yet: every node is projected on the first call.
+    pub fn new(n_nodes: usize) -> Self {
+        Self {
+            gap: vec![f64::NEG_INFINITY; n_nodes],
+            x: vec![Vector3::zeros(); n_nodes],
+            drift_then: vec![0.0; n_nodes],
+            drift: 0.0,
+            q_last: Vec::new(),
+        }
+    }
+
+    /// Lower bound (m) of node `k`'s gap at position `x` on the surface of the last call.
+    pub fn lower_bound(&self, k: usize, x: &Vector3<f64>) -> f64 {
+        self.gap[k] - (x - self.x[k]).norm() - (self.drift - self.drift_then[k])
+    }
+
+    /// [`project_nodes`] restricted to the nodes whose gap bound is not above `margin` (m),
+    /// or all nodes with `all`. The others keep their last `out` and warm start (their gap
+    /// there is stale, but provably above `margin`). Returns the number of nodes projected.
+    #[allow(clippy::too_many_arguments)]
+    pub fn project_near(
+        &mut self,
+        spline: &CasingSpline,
+        q: &[Vector3<f64>],
+        xs: &[Vector3<f64>],
+        warm: &mut [Option<SurfaceParam>],
+        eps_nr: f64,
+        out: &mut [Projection],
+        margin: f64,
+        all: bool,
+    ) -> Result<usize, NodeProjectionError> {
+        check_lengths(xs.len(), warm.len(), out.len())?;
+        check_lengths(xs.len(), self.gap.len(), out.len())?;
+        if self.q_last.len() == q.len() {
+            let moved = q
+                .iter()
+                .zip(&self.q_last)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).norm_squared()));
+            self.drift += moved.sqrt();
+            self.q_last.copy_from_slice(q);
+        } else {
+            // A new surface (first call): no earlier bound applies.
+            self.q_last = q.to_vec();
+            self.gap.iter_mut().for_each(|g| *g = f64::NEG_INFINITY);
+        }
+        let mut projected = 0;
+        for (node, x) in xs.iter().enumerate() {
+            if !all && self.lower_bound(node, x) > margin {
+                continue;
+            }
+            let p = closest_point(spline, q, *x, warm[node], eps_nr)
+                .map_err(|source| NodeProjectionError { node, source })?;
+            warm[node] = Some(p.param);
+            out[node] = p;
+            self.gap[node] = p.gap;
+            self.x[node] = *x;
+            self.drift_then[node] = self.drift;
+            projected += 1;
+        }
+        Ok(projected)
+    }
 }
 
 /// Cold-start guess (paper §3.1): centre of the patch, among those touching the
@@ -444,6 +533,79 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn gap_bounds_never_exceed_the_gap_and_skip_only_far_nodes() {
+        // Nodes sweeping round inside a casing that then breathes in a two-lobe shape: each step,
+        // projecting only the nodes near the surface must find every node within the margin,
+        // with the gaps of a full projection, and the bound must stay below the true gap.
+        let (n, m) = (24, 5);
+        let mut c = cylinder();
+        let mut bounds = GapBounds::new(8);
+        let (mut warm_all, mut warm_near) = (vec![None; 8], vec![None; 8]);
+        let (mut full, mut near) = (
+            vec![Projection::default(); 8],
+            vec![Projection::default(); 8],
+        );
+        let margin = 1e-3;
+        let (mut skipped, mut in_margin) = (0, 0);
+        for step in 0..400 {
+            // First the nodes alone move (also radially), then the casing too.
+            let t = step as f64 * 1e-3;
+            let breathe = if step < 200 { 0.0 } else { (50.0 * t).sin() };
+            let mut nodes = c.nodes.clone();
+            for (k, x) in nodes.iter_mut().enumerate() {
+                let th = 2.0 * PI * (k / m) as f64 / n as f64;
+                *x += Vector3::new(th.cos(), th.sin(), 0.0) * 4e-3 * (2.0 * th).cos() * breathe;
+            }
+            c.sp.control_points(&nodes, &mut c.q).unwrap();
+            let xs: Vec<Vector3<f64>> = (0..8)
+                .map(|k| {
+                    let (th, r) = (
+                        0.7 * k as f64 + 0.3 * t,
+                        0.3 - 0.004 + 1e-3 * (k % 3) as f64 + 2e-3 * (20.0 * t + k as f64).sin(),
+                    );
+                    Vector3::new(r * th.cos(), r * th.sin(), 0.02 + 0.01 * k as f64)
+                })
+                .collect();
+            project_nodes(&c.sp, &c.q, &xs, &mut warm_all, DEFAULT_EPS_NR, &mut full).unwrap();
+            let done = bounds
+                .project_near(
+                    &c.sp,
+                    &c.q,
+                    &xs,
+                    &mut warm_near,
+                    DEFAULT_EPS_NR,
+                    &mut near,
+                    margin,
+                    false,
+                )
+                .unwrap();
+            // After the call the bound includes this step's surface motion.
+            let bound: Vec<f64> = (0..8).map(|k| bounds.lower_bound(k, &xs[k])).collect();
+            skipped += 8 - done;
+            for k in 0..8 {
+                if step > 0 {
+                    assert!(
+                        bound[k] <= full[k].gap + 1e-12,
+                        "step {step} node {k}: bound above gap"
+                    );
+                }
+                if full[k].gap <= margin {
+                    in_margin += 1;
+                    assert!(
+                        (near[k].gap - full[k].gap).abs() < 1e-9,
+                        "step {step} node {k}"
+                    );
+                }
+            }
+        }
+        // The test must exercise both branches.
+        assert!(
+            skipped > 400 && in_margin > 100,
+            "skipped {skipped}, in margin {in_margin}"
+        );
     }
 
     #[test]

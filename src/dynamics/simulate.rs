@@ -5,7 +5,8 @@
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
-    CasingSpline, NodeProjectionError, Projection, SurfaceParam, friction_direction, project_nodes,
+    CasingSpline, GapBounds, NodeProjectionError, Projection, SurfaceParam, friction_direction,
+    project_nodes,
 };
 use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve, rot_z};
@@ -337,6 +338,10 @@ pub fn simulate(
     let mut q_prev = q.clone();
     let mut warm: Vec<Option<SurfaceParam>> = vec![None; nn];
     let mut proj = vec![Projection::default(); nn];
+    // Nodes provably farther than this from the casing are not projected (a rub starts at gap
+    // 0; a coating reacts from its thickness on).
+    let mut gap_bounds = GapBounds::new(nn);
+    let touch_margin = case.coating.as_ref().map_or(0.0, |c| c.material.thickness);
     let mut cands: Vec<Cand> = Vec::with_capacity(nn);
     let mut wmat = vec![0.0; nn * nn];
     let mut dvec = vec![0.0; nn];
@@ -427,7 +432,20 @@ pub fn simulate(
         };
         let r_om = rot_z(case.omega * t1);
         fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-        project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj).map_err(projection_failed)?;
+        // Every node on sample steps, so that the sampled minimum gap is exact.
+        let sample_step = (step + 1) % num.decimation == 0;
+        gap_bounds
+            .project_near(
+                &spline,
+                &q,
+                &gam,
+                &mut warm,
+                eps,
+                &mut proj,
+                touch_margin,
+                sample_step,
+            )
+            .map_err(projection_failed)?;
         // 3b. Abradable coating (paper Fig. 11): known coating forces first, then re-projection so
         // that the Lagrange problem below sees them in its predicted gaps.
         if let Some(cs) = coat.as_mut() {
@@ -448,7 +466,8 @@ pub fn simulate(
                     casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
                 }
                 fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-                project_nodes(&spline, &q, &gam, &mut warm, eps, &mut proj)
+                gap_bounds
+                    .project_near(&spline, &q, &gam, &mut warm, eps, &mut proj, 0.0, true)
                     .map_err(projection_failed)?;
                 cs.flag_penetrations(nci, &proj)?;
             }
@@ -658,7 +677,7 @@ pub fn simulate(
             let r_te = er_i[te].dot(&node_disp(ub, s, nbi, te));
             out.max_blade_radial = out.max_blade_radial.max(r_le.abs()).max(r_te.abs());
         }
-        if (step + 1) % num.decimation == 0 {
+        if sample_step {
             out.time.push(t1);
             for s in 0..nbl {
                 out.blade_le_radial[s].push(er_i[le].dot(&node_disp(ub, s, nbi, le)));
