@@ -467,6 +467,14 @@ impl ModalKernel {
 /// `y` is a work buffer of the same length as `x`.
 #[inline]
 fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if !b.real && has_avx2_fma() && (b.rows / 2) % 4 == 0 {
+            // SAFETY: the CPU supports the enabled features (checked just above).
+            unsafe { expand_pair_avx2(basis, b.rows / 2, &eta[..2 * b.n], x) };
+            return;
+        }
+    }
     x.iter_mut().for_each(|v| *v = 0.0);
     gemv(basis, b.rows, &eta[..b.n], x);
     if b.real {
@@ -487,6 +495,14 @@ fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
 /// `g₂ = (J V)ᵀ x = Vᵀ [x_b; −x_a]`. `y` is a work buffer of the same length as `x`.
 #[inline]
 fn project(b: &Block, basis: &[f64], x: &[f64], y: &mut [f64], g: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if !b.real && has_avx2_fma() && (b.rows / 2) % 4 == 0 {
+            // SAFETY: the CPU supports the enabled features (checked just above).
+            unsafe { project_pair_avx2(basis, b.rows / 2, x, &mut g[..2 * b.n]) };
+            return;
+        }
+    }
     gemv_t(basis, b.rows, x, &mut g[..b.n]);
     if b.real {
         return;
@@ -497,6 +513,133 @@ fn project(b: &Block, basis: &[f64], x: &[f64], y: &mut [f64], g: &mut [f64]) {
         y[h + r] = -x[r];
     }
     gemv_t(basis, b.rows, y, &mut g[b.n..2 * b.n]);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn has_avx2_fma() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+}
+
+/// [`expand`] of a complex harmonic in one pass over its half basis `V = [V_a; V_b]`
+/// (`2h` rows, `h` a multiple of 4, `η.len()/2` columns): `x_a = V_a η₁ − V_b η₂`,
+/// `x_b = V_b η₁ + V_a η₂`, in bands of up to 16 rows per half (eight accumulators), so each
+/// basis entry is loaded once for two products.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn expand_pair_avx2(basis: &[f64], h: usize, eta: &[f64], x: &mut [f64]) {
+    let n = eta.len() / 2;
+    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h % 4 == 0);
+    let (e1, e2) = eta.split_at(n);
+    let mut r = 0;
+    while r < h {
+        // SAFETY: rows r..r + 4W of both halves lie inside every column and `x` (checked above).
+        unsafe {
+            match (h - r) / 4 {
+                1 => expand_band::<1>(basis, h, e1, e2, x, r),
+                2 => expand_band::<2>(basis, h, e1, e2, x, r),
+                3 => expand_band::<3>(basis, h, e1, e2, x, r),
+                _ => expand_band::<4>(basis, h, e1, e2, x, r),
+            }
+        }
+        r += 16.min(h - r);
+    }
+}
+
+/// Rows `r0..r0 + 4W` of both halves of [`expand_pair_avx2`].
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; `r0 + 4W ≤ h`, `basis.len() ≥ 2h·e1.len()`, `x.len() ≥ 2h`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn expand_band<const W: usize>(
+    basis: &[f64],
+    h: usize,
+    e1: &[f64],
+    e2: &[f64],
+    x: &mut [f64],
+    r0: usize,
+) {
+    use std::arch::x86_64::{
+        _mm256_fmadd_pd, _mm256_fnmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_setzero_pd,
+        _mm256_storeu_pd,
+    };
+    // SAFETY: the caller guarantees the bounds.
+    unsafe {
+        let mut xa = [_mm256_setzero_pd(); W];
+        let mut xb = [_mm256_setzero_pd(); W];
+        for (p, (&a1, &a2)) in e1.iter().zip(e2).enumerate() {
+            let (s1, s2) = (_mm256_set1_pd(a1), _mm256_set1_pd(a2));
+            let col = basis.as_ptr().add(2 * h * p + r0);
+            for i in 0..W {
+                let va = _mm256_loadu_pd(col.add(4 * i));
+                let vb = _mm256_loadu_pd(col.add(h + 4 * i));
+                xa[i] = _mm256_fnmadd_pd(vb, s2, _mm256_fmadd_pd(va, s1, xa[i]));
+                xb[i] = _mm256_fmadd_pd(va, s2, _mm256_fmadd_pd(vb, s1, xb[i]));
+            }
+        }
+        for i in 0..W {
+            _mm256_storeu_pd(x.as_mut_ptr().add(r0 + 4 * i), xa[i]);
+            _mm256_storeu_pd(x.as_mut_ptr().add(h + r0 + 4 * i), xb[i]);
+        }
+    }
+}
+
+/// [`project`] of a complex harmonic in one pass over its half basis (see
+/// [`expand_pair_avx2`]): `g₁ = V_aᵀ x_a + V_bᵀ x_b`, `g₂ = V_aᵀ x_b − V_bᵀ x_a`, four
+/// columns at a time with their eight sums reduced together.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn project_pair_avx2(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
+    use std::arch::x86_64::{
+        __m256d, _mm256_add_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd,
+        _mm256_permute2f128_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+    };
+    let n = g.len() / 2;
+    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h % 4 == 0);
+    // Lane sums of four accumulators as one vector [Σa, Σb, Σc, Σd].
+    let reduce4 = |a: __m256d, b: __m256d, c: __m256d, d: __m256d| {
+        let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
+        _mm256_add_pd(
+            _mm256_permute2f128_pd::<0x20>(ab, cd),
+            _mm256_permute2f128_pd::<0x31>(ab, cd),
+        )
+    };
+    let mut p = 0;
+    while p < n {
+        let width = (n - p).min(4);
+        let mut g1 = [_mm256_setzero_pd(); 4];
+        let mut g2 = [_mm256_setzero_pd(); 4];
+        let mut r = 0;
+        while r < h {
+            // SAFETY: r + 4 ≤ h and p + j < n, so every load is inside `x` and `basis`
+            // (checked above).
+            unsafe {
+                let xa = _mm256_loadu_pd(x.as_ptr().add(r));
+                let xb = _mm256_loadu_pd(x.as_ptr().add(h + r));
+                for j in 0..width {
+                    let col = basis.as_ptr().add(2 * h * (p + j) + r);
+                    let (va, vb) = (_mm256_loadu_pd(col), _mm256_loadu_pd(col.add(h)));
+                    g1[j] = _mm256_fmadd_pd(vb, xb, _mm256_fmadd_pd(va, xa, g1[j]));
+                    g2[j] = _mm256_fnmadd_pd(vb, xa, _mm256_fmadd_pd(va, xb, g2[j]));
+                }
+            }
+            r += 4;
+        }
+        let (s1, s2) = (
+            reduce4(g1[0], g1[1], g1[2], g1[3]),
+            reduce4(g2[0], g2[1], g2[2], g2[3]),
+        );
+        let (mut t1, mut t2) = ([0.0f64; 4], [0.0f64; 4]);
+        // SAFETY: `t1`, `t2` hold four f64.
+        unsafe {
+            _mm256_storeu_pd(t1.as_mut_ptr(), s1);
+            _mm256_storeu_pd(t2.as_mut_ptr(), s2);
+        }
+        g[p..p + width].copy_from_slice(&t1[..width]);
+        g[n + p..n + p + width].copy_from_slice(&t2[..width]);
+        p += width;
+    }
 }
 
 /// Writes (or adds, with `add`) harmonic `k` of the boundary rows `x` into a `c2r` spectrum:
@@ -987,6 +1130,48 @@ fn gemv_t_impl(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
 #[cfg(test)]
 mod gemv_tests {
     use super::*;
+
+    /// The one-pass J-pair kernels equal the naive `[V, JV] η` and `[V, JV]ᵀ x`, for half
+    /// heights that fill whole 16-row bands and leave partial ones.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn paired_kernels_match_the_naive_products() {
+        if !has_avx2_fma() {
+            return;
+        }
+        let mut rng = crate::dynamics::synthetic::Lcg(11);
+        for (h, n) in [(4, 3), (16, 25), (20, 6), (36, 5)] {
+            let v: Vec<f64> = (0..2 * h * n).map(|_| rng.next()).collect();
+            let eta: Vec<f64> = (0..2 * n).map(|_| rng.next()).collect();
+            let x: Vec<f64> = (0..2 * h).map(|_| rng.next()).collect();
+            // Column p of [V, JV]: V's column, or J of it ([a; b] ↦ [−b; a]).
+            let col = |p: usize, r: usize| {
+                let c = &v[(p % n) * 2 * h..(p % n + 1) * 2 * h];
+                match (p < n, r < h) {
+                    (true, _) => c[r],
+                    (false, true) => -c[h + r],
+                    (false, false) => c[r - h],
+                }
+            };
+            let mut got = vec![0.0; 2 * h];
+            // SAFETY: AVX2 and FMA checked above.
+            unsafe { expand_pair_avx2(&v, h, &eta, &mut got) };
+            for r in 0..2 * h {
+                let want: f64 = (0..2 * n).map(|p| col(p, r) * eta[p]).sum();
+                assert!((got[r] - want).abs() < 1e-13, "expand h={h} n={n} row {r}");
+            }
+            let mut g = vec![0.0; 2 * n];
+            // SAFETY: as above.
+            unsafe { project_pair_avx2(&v, h, &x, &mut g) };
+            for p in 0..2 * n {
+                let want: f64 = (0..2 * h).map(|r| col(p, r) * x[r]).sum();
+                assert!(
+                    (g[p] - want).abs() < 1e-13,
+                    "project h={h} n={n} column {p}"
+                );
+            }
+        }
+    }
 
     /// `correct_then_predict` + `predict` gives exactly the state and channels of `correct` +
     /// `predict` (the same arithmetic in the same order), and the fused predictor is used.
