@@ -469,7 +469,7 @@ impl ModalKernel {
 fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if !b.real && has_avx2_fma() && (b.rows / 2) % 4 == 0 {
+        if !b.real && has_avx2_fma() {
             // SAFETY: the CPU supports the enabled features (checked just above).
             unsafe { expand_pair_avx2(basis, b.rows / 2, &eta[..2 * b.n], x) };
             return;
@@ -497,7 +497,7 @@ fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
 fn project(b: &Block, basis: &[f64], x: &[f64], y: &mut [f64], g: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if !b.real && has_avx2_fma() && (b.rows / 2) % 4 == 0 {
+        if !b.real && has_avx2_fma() {
             // SAFETY: the CPU supports the enabled features (checked just above).
             unsafe { project_pair_avx2(basis, b.rows / 2, x, &mut g[..2 * b.n]) };
             return;
@@ -529,7 +529,7 @@ fn has_avx2_fma() -> bool {
 #[target_feature(enable = "avx2,fma")]
 fn expand_pair_avx2(basis: &[f64], h: usize, eta: &[f64], x: &mut [f64]) {
     let n = eta.len() / 2;
-    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h % 4 == 0);
+    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h.is_multiple_of(4));
     let (e1, e2) = eta.split_at(n);
     let mut r = 0;
     while r < h {
@@ -596,7 +596,7 @@ fn project_pair_avx2(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
         _mm256_permute2f128_pd, _mm256_setzero_pd, _mm256_storeu_pd,
     };
     let n = g.len() / 2;
-    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h % 4 == 0);
+    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h.is_multiple_of(4));
     // Lane sums of four accumulators as one vector [Σa, Σb, Σc, Σd].
     let reduce4 = |a: __m256d, b: __m256d, c: __m256d, d: __m256d| {
         let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
