@@ -1156,9 +1156,9 @@ mod gemv_tests {
             let mut got = vec![0.0; 2 * h];
             // SAFETY: AVX2 and FMA checked above.
             unsafe { expand_pair_avx2(&v, h, &eta, &mut got) };
-            for r in 0..2 * h {
+            for (r, got_r) in got.iter().enumerate() {
                 let want: f64 = (0..2 * n).map(|p| col(p, r) * eta[p]).sum();
-                assert!((got[r] - want).abs() < 1e-13, "expand h={h} n={n} row {r}");
+                assert!((got_r - want).abs() < 1e-13, "expand h={h} n={n} row {r}");
             }
             let mut g = vec![0.0; 2 * n];
             // SAFETY: as above.
