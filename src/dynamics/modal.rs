@@ -1163,12 +1163,9 @@ mod gemv_tests {
             let mut g = vec![0.0; 2 * n];
             // SAFETY: as above.
             unsafe { project_pair_avx2(&v, h, &x, &mut g) };
-            for p in 0..2 * n {
+            for (p, g_p) in g.iter().enumerate() {
                 let want: f64 = (0..2 * h).map(|r| col(p, r) * x[r]).sum();
-                assert!(
-                    (g[p] - want).abs() < 1e-13,
-                    "project h={h} n={n} column {p}"
-                );
+                assert!((g_p - want).abs() < 1e-13, "project h={h} n={n} column {p}");
             }
         }
     }
