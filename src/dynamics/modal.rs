@@ -77,18 +77,21 @@ pub struct ModalKernel {
     ub: Vec<f64>,
     r2c: Arc<dyn RealToComplex<f64>>,
     c2r: Arc<dyn ComplexToReal<f64>>,
-    /// Spectra per boundary channel, `nb × (N/2+1)` (work buffer).
-    spec: Vec<Complex64>,
-    /// Spectrum of the current `u_{n+1}` boundary (set by predict, updated by correct).
-    spec_state: Vec<Complex64>,
+    /// Harmonic rows `Φ_b,k η_k` of every nodal diameter k at `k · 2nbp` (`[a; b]` of the
+    /// real form, see [`expand`]): the spectra in the form the per-ND products read and
+    /// write; the sector DFTs convert (`rows_to_boundary`, `forces_to_rows`). Work buffer.
+    spec: Vec<f64>,
+    /// Harmonic rows of the current `u_{n+1}` channels (set by predict, updated by correct).
+    spec_state: Vec<f64>,
     /// Predictor of the next step formed during the last correction (see
     /// [`StructureKernel::correct_then_predict`]): modal coordinates, channel spectrum, and
     /// the load amplitude it used (`None`: not formed, or used up).
     eta_pred: Vec<f64>,
-    spec_pred: Vec<Complex64>,
+    spec_pred: Vec<f64>,
     pred_amplitude: Option<f64>,
-    /// Spectrum of the last force passed to correct/response.
-    fspec: Vec<Complex64>,
+    /// Harmonic rows `(a, b)` of the last force passed to correct/response (`a = w Re X_k`,
+    /// `b = −w Im X_k` of its sector DFT `X_k`).
+    fspec: Vec<f64>,
     /// Modal increment of one block (`dim` ≤ max block size).
     deta: Vec<f64>,
     /// Second half-basis product of a complex harmonic (work buffer, `2 nbp`).
@@ -194,11 +197,11 @@ impl ModalKernel {
             ub: vec![0.0; ns * nb],
             r2c,
             c2r,
-            spec: vec![Complex64::new(0.0, 0.0); nb * nspec],
-            spec_state: vec![Complex64::new(0.0, 0.0); nb * nspec],
-            fspec: vec![Complex64::new(0.0, 0.0); nb * nspec],
+            spec: vec![0.0; 2 * nbp * nspec],
+            spec_state: vec![0.0; 2 * nbp * nspec],
+            fspec: vec![0.0; 2 * nbp * nspec],
             eta_pred: vec![0.0; n],
-            spec_pred: vec![Complex64::new(0.0, 0.0); nb * nspec],
+            spec_pred: vec![0.0; 2 * nbp * nspec],
             pred_amplitude: None,
             deta: vec![0.0; st.blocks.iter().map(|b| b.dim).max().unwrap_or(0)],
             yb: vec![0.0; 2 * nbp],
@@ -248,11 +251,9 @@ impl ModalKernel {
     }
 
     /// Contact-node displacements (sector-major) of modal coordinates `which` into `out`, or the
-    /// per-step channels into `ub` with `out_is_ub` (keeping the spectrum in `spec_state` for the
+    /// per-step channels into `ub` with `out_is_ub` (keeping the harmonic rows in `spec_state` for the
     /// next correction).
     fn boundary_of(&mut self, which: Which, out_is_ub: bool, out: &mut [f64]) {
-        let nspec = self.ns / 2 + 1;
-        let nb = self.nb;
         let eta: &[f64] = match which {
             Which::Next => &self.eta_next,
             Which::Current => &self.eta,
@@ -263,31 +264,44 @@ impl ModalKernel {
         } else {
             &mut self.spec
         };
+        let stride = 2 * self.nbp;
         for (k, b) in self.blocks.iter().enumerate() {
-            let xb = &mut self.xb[..b.rows];
             let yb = &mut self.yb[..b.rows];
             let basis = if out_is_ub { b.step_basis() } else { &b.phib };
-            expand(b, basis, &eta[b.offset..b.offset + b.dim], xb, yb);
-            put_spectrum(b, self.nbp, nb, nspec, k, xb, spec, false);
+            let x = &mut spec[k * stride..k * stride + b.rows];
+            expand(b, basis, &eta[b.offset..b.offset + b.dim], x, yb);
         }
         if out_is_ub {
-            self.spectrum_to_boundary(true, &mut []);
+            self.rows_to_boundary(true, &mut []);
         } else {
-            self.spectrum_to_boundary(false, out);
+            self.rows_to_boundary(false, out);
         }
     }
 
-    /// Inverse real DFT of every boundary channel of `spec_state` (into `ub`) or `spec` (into `out`).
-    fn spectrum_to_boundary(&mut self, state: bool, out: &mut [f64]) {
-        let nspec = self.ns / 2 + 1;
-        let nb = self.nb;
-        let (spec, target): (&[Complex64], &mut [f64]) = if state {
+    /// Inverse real DFT of every boundary channel of the harmonic rows `spec_state` (into `ub`)
+    /// or `spec` (into `out`): harmonic k enters the `c2r` spectrum as `w a` (real harmonic)
+    /// or `w (a − i b)/2`, so that `u_s = w (a cos kθ_s + b sin kθ_s)` (module doc of
+    /// `structure`).
+    fn rows_to_boundary(&mut self, state: bool, out: &mut [f64]) {
+        let (nb, nbp) = (self.nb, self.nbp);
+        let (rows, target): (&[f64], &mut [f64]) = if state {
             (&self.spec_state, &mut self.ub)
         } else {
             (&self.spec, out)
         };
         for r in 0..nb {
-            self.cbuf.copy_from_slice(&spec[r * nspec..(r + 1) * nspec]);
+            for ((c, b), x) in self
+                .cbuf
+                .iter_mut()
+                .zip(&self.blocks)
+                .zip(rows.chunks_exact(2 * nbp))
+            {
+                *c = if b.real {
+                    Complex64::new(b.w * x[r], 0.0)
+                } else {
+                    Complex64::new(0.5 * b.w * x[r], -0.5 * b.w * x[nbp + r])
+                };
+            }
             self.c2r
                 .process_with_scratch(&mut self.cbuf, &mut self.tbuf, &mut self.scratch)
                 .expect("FFT buffer sizes are fixed at construction");
@@ -297,11 +311,11 @@ impl ModalKernel {
         }
     }
 
-    /// Forward real DFT of every boundary channel of the sector-major `forces` into `fspec`
-    /// (a channel without load gets a zero spectrum without an FFT).
-    fn forces_to_spectrum(&mut self, forces: &[f64]) {
-        let nspec = self.ns / 2 + 1;
-        let (nb, ns) = (self.nb, self.ns);
+    /// Forward real DFT of every boundary channel of the sector-major `forces` into the
+    /// harmonic rows `fspec`: `X_k = Σ_s f_s e^{−ikθ_s}` gives `a = w Re X_k`, `b = −w Im X_k`
+    /// (a channel without load gets zero rows without an FFT).
+    fn forces_to_rows(&mut self, forces: &[f64]) {
+        let (nb, nbp, ns) = (self.nb, self.nbp, self.ns);
         for r in 0..nb {
             let mut any = false;
             for s in 0..ns {
@@ -309,15 +323,21 @@ impl ModalKernel {
                 any |= f != 0.0;
                 self.tbuf[s] = f;
             }
-            let dst = &mut self.fspec[r * nspec..(r + 1) * nspec];
+            let rows = self.fspec.chunks_exact_mut(2 * nbp).zip(&self.blocks);
             if !any {
-                dst.iter_mut().for_each(|x| *x = Complex64::new(0.0, 0.0));
+                for (x, _) in rows {
+                    x[r] = 0.0;
+                    x[nbp + r] = 0.0;
+                }
                 continue;
             }
             self.r2c
                 .process_with_scratch(&mut self.tbuf, &mut self.cbuf, &mut self.scratch)
                 .expect("FFT buffer sizes are fixed at construction");
-            dst.copy_from_slice(&self.cbuf);
+            for ((x, b), f) in rows.zip(&self.cbuf) {
+                x[r] = b.w * f.re;
+                x[nbp + r] = if b.real { 0.0 } else { -b.w * f.im };
+            }
         }
     }
 
@@ -328,15 +348,14 @@ impl ModalKernel {
     /// predictor of the following step with load amplitude `a` is formed in the same pass, into
     /// `eta_pred`/`spec_pred`, so that a contact step reads each basis once from memory.
     fn apply_force_spectrum(&mut self, state: bool, next: Option<f64>) {
-        let nspec = self.ns / 2 + 1;
-        let nb = self.nb;
+        let stride = 2 * self.nbp;
         for (k, b) in self.blocks.iter().enumerate() {
+            let chunk = k * stride..k * stride + b.rows;
             let xb = &mut self.xb[..b.rows];
             let yb = &mut self.yb[..b.rows];
             let range = b.offset..b.offset + b.dim;
-            take_spectrum(b, self.nbp, nb, nspec, k, &self.fspec, xb);
             let deta = &mut self.deta[..b.dim];
-            project(b, b.step_basis(), xb, yb, deta);
+            project(b, b.step_basis(), &self.fspec[chunk.clone()], yb, deta);
             for (d, c) in deta.iter_mut().zip(&self.c3[range.clone()]) {
                 *d *= c;
             }
@@ -344,22 +363,21 @@ impl ModalKernel {
                 for (e, d) in self.eta_next[range.clone()].iter_mut().zip(deta.iter()) {
                     *e += d;
                 }
-            }
-            let spec = if state {
-                &mut self.spec_state
+                expand(b, b.step_basis(), deta, xb, yb);
+                for (u, d) in self.spec_state[chunk.clone()].iter_mut().zip(xb.iter()) {
+                    *u += d;
+                }
             } else {
-                &mut self.spec
-            };
-            expand(b, b.step_basis(), deta, xb, yb);
-            put_spectrum(b, self.nbp, nb, nspec, k, xb, spec, state);
+                expand(b, b.step_basis(), deta, &mut self.spec[chunk.clone()], yb);
+            }
             if let Some(a) = next {
                 for i in range.clone() {
                     self.eta_pred[i] = self.c1[i] * self.eta_next[i]
                         + self.c2[i] * self.eta[i]
                         + self.c3[i] * a * self.gload[i];
                 }
-                expand(b, b.step_basis(), &self.eta_pred[range], xb, yb);
-                put_spectrum(b, self.nbp, nb, nspec, k, xb, &mut self.spec_pred, false);
+                let x = &mut self.spec_pred[chunk];
+                expand(b, b.step_basis(), &self.eta_pred[range], x, yb);
             }
         }
         self.pred_amplitude = next;
@@ -367,20 +385,23 @@ impl ModalKernel {
 
     /// Modal forces `Φᵀ P f` of boundary forces `f` (sector-major), scaled by `1/a_p`, added to `dst`.
     fn add_response(&mut self, forces: &[f64], dst: Which) {
-        let nspec = self.ns / 2 + 1;
-        let nb = self.nb;
-        self.forces_to_spectrum(forces);
+        let stride = 2 * self.nbp;
+        self.forces_to_rows(forces);
         let eta: &mut [f64] = match dst {
             Which::Next => &mut self.eta_next,
             Which::Current => &mut self.eta,
             Which::Tmp => &mut self.tmp_eta,
         };
         for (k, b) in self.blocks.iter().enumerate() {
-            let xb = &mut self.xb[..b.rows];
             let yb = &mut self.yb[..b.rows];
-            take_spectrum(b, self.nbp, nb, nspec, k, &self.fspec, xb);
             let g = &mut self.deta[..b.dim];
-            project(b, &b.phib, xb, yb, g);
+            project(
+                b,
+                &b.phib,
+                &self.fspec[k * stride..k * stride + b.rows],
+                yb,
+                g,
+            );
             for p in 0..b.dim {
                 eta[b.offset + p] += self.c3[b.offset + p] * g[p];
             }
@@ -642,53 +663,6 @@ fn project_pair_avx2(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
     }
 }
 
-/// Writes (or adds, with `add`) harmonic `k` of the boundary rows `x` into a `c2r` spectrum:
-/// `w x_a` (real harmonic) or `w (x_a − i x_b)/2`, so that the inverse real DFT gives
-/// `u_s = w (a cos kθ_s + b sin kθ_s)` (module doc of `structure`).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn put_spectrum(
-    b: &Block,
-    nbp: usize,
-    nb: usize,
-    nspec: usize,
-    k: usize,
-    x: &[f64],
-    spec: &mut [Complex64],
-    add: bool,
-) {
-    for r in 0..nb {
-        let z = if b.real {
-            Complex64::new(b.w * x[r], 0.0)
-        } else {
-            Complex64::new(0.5 * b.w * x[r], -0.5 * b.w * x[nbp + r])
-        };
-        let e = &mut spec[r * nspec + k];
-        *e = if add { *e + z } else { z };
-    }
-}
-
-/// Reads harmonic `k` of an `r2c` force spectrum into boundary rows: `X_k = Σ_s f_s e^{−ikθ_s}`
-/// gives `a = w Re X_k`, `b = −w Im X_k`.
-#[inline]
-fn take_spectrum(
-    b: &Block,
-    nbp: usize,
-    nb: usize,
-    nspec: usize,
-    k: usize,
-    fspec: &[Complex64],
-    x: &mut [f64],
-) {
-    for r in 0..nb {
-        let f = fspec[r * nspec + k];
-        x[r] = b.w * f.re;
-        if !b.real {
-            x[nbp + r] = -b.w * f.im;
-        }
-    }
-}
-
 /// `Ĥ_k = Σ_m H(m) e^{−ikmα}`, k = 0..=N/2: the spline map from the contact-node
 /// displacements of sector `i` (its local frame) to the control points `Q[c][1..=M]` of class
 /// `cl = c − 1` (frame rotated by `cl·α`), `H(cl − i)`, probed column by column on sector 0.
@@ -848,7 +822,7 @@ impl StructureKernel for ModalKernel {
             // Formed by the last correct_then_predict, from the same η_n, η_{n−1}.
             std::mem::swap(&mut self.eta_next, &mut self.eta_pred);
             std::mem::swap(&mut self.spec_state, &mut self.spec_pred);
-            self.spectrum_to_boundary(true, &mut []);
+            self.rows_to_boundary(true, &mut []);
             return;
         }
         for i in 0..self.eta.len() {
@@ -862,19 +836,19 @@ impl StructureKernel for ModalKernel {
         &self.ub
     }
     fn correct(&mut self, forces: &[f64]) {
-        self.forces_to_spectrum(forces);
+        self.forces_to_rows(forces);
         self.apply_force_spectrum(true, None);
-        self.spectrum_to_boundary(true, &mut []);
+        self.rows_to_boundary(true, &mut []);
     }
     fn correct_then_predict(&mut self, forces: &[f64], next_amplitude: f64) {
-        self.forces_to_spectrum(forces);
+        self.forces_to_rows(forces);
         self.apply_force_spectrum(true, Some(next_amplitude));
-        self.spectrum_to_boundary(true, &mut []);
+        self.rows_to_boundary(true, &mut []);
     }
     fn response(&mut self, forces: &[f64], out: &mut [f64]) {
-        self.forces_to_spectrum(forces);
+        self.forces_to_rows(forces);
         self.apply_force_spectrum(false, None);
-        self.spectrum_to_boundary(false, out);
+        self.rows_to_boundary(false, out);
     }
     fn advance(&mut self) {
         std::mem::swap(&mut self.eta_prev, &mut self.eta);
