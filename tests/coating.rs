@@ -38,6 +38,7 @@ fn case(material: CoatingMaterial, eta: usize, clearance: [f64; 2], duration: f6
             lobes: 2,
             static_displacement: 2.5e-4,
             ramp_time: 3e-3,
+            hold_time: 0.0,
         }),
         // Tips at (casing radius − e_abr − clearance).
         clearance_offset: clearance.iter().map(|c| c0 - e - c).collect(),

@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 
 /// Progressive n-lobe radial load on the casing trailing-edge contact nodes (row M−1):
 /// the force on node `(i, M−1)` is `−F(t) cos(n θ_i) e_r` (inward at θ = 0), `F` ramping
-/// linearly from 0 at t = 0 to its full value at `ramp_time`, then released (zero).
+/// linearly from 0 at t = 0 to its full value at `ramp_time`, held for `hold_time`, then
+/// released (zero).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LobeLoad {
@@ -17,8 +18,12 @@ pub struct LobeLoad {
     /// Full amplitude given as the *static* inward radial displacement δ (m) it produces at
     /// the peak of the lobe (converted through the casing's static stiffness of nodal diameter n).
     pub static_displacement: f64,
-    /// End of the ramp t_f (s); the load is released after it.
+    /// End of the ramp t_f (s).
     pub ramp_time: f64,
+    /// Time (s) the full load is held after the ramp before its release; 0 (the default)
+    /// releases it at t_f, as in the paper's case study 1.
+    #[serde(default)]
+    pub hold_time: f64,
 }
 
 /// Shape of a rigid casing.
@@ -225,10 +230,12 @@ impl CoatingCase {
 }
 
 impl Case {
-    /// Amplitude factor of the casing load at time t: `t/t_f` on [0, t_f], then 0.
+    /// Amplitude factor of the casing load at time t: `t/t_f` on [0, t_f], 1 during the hold,
+    /// then 0.
     pub fn load_factor(&self, t: f64) -> f64 {
         match &self.load {
             Some(l) if t <= l.ramp_time && l.ramp_time > 0.0 => t / l.ramp_time,
+            Some(l) if t <= l.ramp_time + l.hold_time => 1.0,
             _ => 0.0,
         }
     }
@@ -237,6 +244,22 @@ impl Case {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn load_ramps_holds_then_is_released() {
+        let mut case: Case =
+            serde_json::from_value(serde_json::json!({"omega": 1.0, "duration": 1.0})).unwrap();
+        case.load = Some(LobeLoad {
+            lobes: 2,
+            static_displacement: 1e-4,
+            ramp_time: 0.25,
+            hold_time: 0.25,
+        });
+        let f = [0.0, 0.125, 0.25, 0.375, 0.5, 0.625].map(|t| case.load_factor(t));
+        assert_eq!(f, [0.0, 0.5, 1.0, 1.0, 1.0, 0.0]);
+        case.load.as_mut().unwrap().hold_time = 0.0;
+        assert_eq!(case.load_factor(0.375), 0.0);
+    }
 
     #[test]
     fn default_tip_area_is_thickness_times_tributary_length() {

@@ -266,9 +266,11 @@ pub fn simulate(
             || !(load.static_displacement.is_finite())
             || load.ramp_time.is_nan()
             || load.ramp_time <= 0.0
+            || load.hold_time.is_nan()
+            || load.hold_time < 0.0
         {
             return bad(format!(
-                "load {load:?}: lobes ≥ 1, finite δ and ramp_time > 0 required"
+                "load {load:?}: lobes ≥ 1, finite δ, ramp_time > 0 and hold_time ≥ 0 required"
             ));
         }
         let te_c = mc - 1;
@@ -1343,6 +1345,7 @@ mod tests {
                 lobes: 2,
                 static_displacement: 2.5e-4,
                 ramp_time: 3e-3,
+                hold_time: 0.0,
             }),
             clearance_offset: vec![],
             casing_probes: vec![[0, 2], [2, 2]],

@@ -341,6 +341,7 @@ impl ModelSimulator {
                         lobes: n as usize,
                         static_displacement: delta,
                         ramp_time: extras.load_ramp_s.unwrap_or(0.25 * duration),
+                        hold_time: 0.0,
                     }),
                     (None, None) => None,
                     _ => bail!(
@@ -397,7 +398,9 @@ impl JobSimulator for ModelSimulator {
 /// `fraction` of the run.
 fn steady_window_start(case: &Case, fraction: f64) -> f64 {
     let tail = case.duration * (1.0 - fraction.clamp(0.0, 1.0));
-    case.load.as_ref().map_or(tail, |l| tail.max(l.ramp_time))
+    case.load
+        .as_ref()
+        .map_or(tail, |l| tail.max(l.ramp_time + l.hold_time))
 }
 
 fn nearest(table: &[CriticalSpeed], omega: f64) -> Option<CriticalSpeed> {
@@ -560,6 +563,7 @@ mod tests {
             lobes: 2,
             static_displacement: 1e-4,
             ramp_time: 0.8,
+            hold_time: 0.0,
         });
         assert_eq!(steady_window_start(&case, 0.5), 0.8);
     }
