@@ -17,10 +17,14 @@
 //!   spline's control points (eq. 13 per nodal diameter), so no spline solve per step.
 //! - **One pass per contact step.** [`StructureKernel::correct_then_predict`] does, per nodal
 //!   diameter while its basis is in L1: `Δη_k = diag(1/a) Φ_b,kᵀ F_k`, `ΔU_k = Φ_b,k Δη_k`
-//!   (added to the kept spectrum of the predicted channels) and the next step's predictor
+//!   (added to the kept harmonic rows of the predicted channels) and the next step's predictor
 //!   `Φ_b,k η*_{n+2,k}`; then one inverse real DFT per channel for each.
-//! - The per-ND products are small GEMVs ([`gemv`], [`gemv_t`]: explicit AVX2/FMA code when the
-//!   CPU has it, a portable four-column loop otherwise).
+//! - **Harmonic-major rows.** The spectra are kept as the per-ND real rows `[a; b]` that the
+//!   products read and write in place; the sector DFTs do the complex packing.
+//! - The per-ND products of a complex harmonic take both halves of a J-pair in one pass over
+//!   the stored half basis (`expand_pair_avx2`, `project_pair_avx2`: explicit AVX2/FMA code
+//!   when the CPU has it); otherwise, and for the real harmonics, small GEMVs ([`gemv`],
+//!   [`gemv_t`]).
 use crate::contact::CasingSpline;
 use crate::dynamics::kernel::{Energies, StructureKernel};
 use crate::dynamics::structure::{NdBlock, Structure, StructureError};
@@ -84,7 +88,7 @@ pub struct ModalKernel {
     /// Harmonic rows of the current `u_{n+1}` channels (set by predict, updated by correct).
     spec_state: Vec<f64>,
     /// Predictor of the next step formed during the last correction (see
-    /// [`StructureKernel::correct_then_predict`]): modal coordinates, channel spectrum, and
+    /// [`StructureKernel::correct_then_predict`]): modal coordinates, harmonic rows, and
     /// the load amplitude it used (`None`: not formed, or used up).
     eta_pred: Vec<f64>,
     spec_pred: Vec<f64>,
@@ -341,7 +345,7 @@ impl ModalKernel {
         }
     }
 
-    /// Fused `A⁻¹ f` of the force spectrum in `fspec`, one nodal diameter at a time:
+    /// Fused `A⁻¹ f` of the force rows in `fspec`, one nodal diameter at a time:
     /// `Δη = diag(1/a) Φ_bᵀ F_k`, then `ΔU_k = Φ_b Δη` while Φ_b is hot in cache. With
     /// `state`, `Δη` is added to `η_{n+1}` and `ΔU` to `spec_state`; otherwise `spec` is
     /// overwritten with `ΔU` (the response alone). With `next = Some(a)` (and `state`), the
