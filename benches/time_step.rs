@@ -1,7 +1,9 @@
 //! µs per time step at paper scale (casing N = 100, M = 5, 10 modes/ND; impeller N_b = 10,
-//! 5 tip nodes, 10 modes/ND), single thread, fast vs dense kernel, free flight and with the
-//! trailing-edge row in contact, on the synthetic ROMs and on the built-in models
-//! (`app::impeller_rom`/`app::casing_rom` defaults, Ω = 3000 rad/s). Needs in Cargo.toml:
+//! 5 tip nodes, 10 modes/ND), single thread, fast vs dense kernel, free flight and with
+//! contact (synthetic ROMs: the trailing-edge row rubbing; built-in models: the held two-lobe
+//! casing load of `bench_default_models`, about 10 % of the tip nodes rubbing), on the
+//! synthetic ROMs and on the built-in models (`app::impeller_rom`/`app::casing_rom` defaults,
+//! Ω = 3000 rad/s). Needs in Cargo.toml:
 //! `[[bench]] name = "time_step" harness = false`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
