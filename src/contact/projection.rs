@@ -247,11 +247,25 @@ pub fn project_nodes(
         .zip(out.iter_mut())
         .enumerate()
     {
-        let p = closest_point(spline, q, *x, *w, eps_nr)
-            .map_err(|source| NodeProjectionError { node, source })?;
-        *w = Some(p.param);
-        *o = p;
+        project_node(spline, q, node, x, w, eps_nr, o)?;
     }
+    Ok(())
+}
+
+/// [`closest_point`] of node `node` at `x`, warm-started from `warm` and storing its new
+/// parameter there; the result goes to `out`.
+fn project_node(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    node: usize,
+    x: &Vector3<f64>,
+    warm: &mut Option<SurfaceParam>,
+    eps_nr: f64,
+    out: &mut Projection,
+) -> Result<(), NodeProjectionError> {
+    *out = closest_point(spline, q, *x, *warm, eps_nr)
+        .map_err(|source| NodeProjectionError { node, source })?;
+    *warm = Some(out.param);
     Ok(())
 }
 
@@ -345,11 +359,8 @@ impl GapBounds {
             if !all && self.lower_bound(node, x) > margin {
                 continue;
             }
-            let p = closest_point(spline, q, *x, warm[node], eps_nr)
-                .map_err(|source| NodeProjectionError { node, source })?;
-            warm[node] = Some(p.param);
-            out[node] = p;
-            self.gap[node] = p.gap;
+            project_node(spline, q, node, x, &mut warm[node], eps_nr, &mut out[node])?;
+            self.gap[node] = out[node].gap;
             self.x[node] = *x;
             self.drift_then[node] = self.drift;
             projected += 1;
