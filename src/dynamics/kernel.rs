@@ -45,6 +45,14 @@ pub trait StructureKernel {
         let _ = next_amplitude;
         self.correct(forces);
     }
+    /// [`StructureKernel::correct_then_predict`] for a caller that does not read the corrected
+    /// channels: [`StructureKernel::boundary`] is stale until the next `predict`. The state,
+    /// energies and node displacements are those of `correct_then_predict`; a kernel may skip
+    /// the channels of the correction (the fast kernel saves a basis pass and the inverse
+    /// sector DFTs).
+    fn correct_state_then_predict(&mut self, forces: &[f64], next_amplitude: f64) {
+        self.correct_then_predict(forces, next_amplitude);
+    }
     /// Boundary displacements of `A⁻¹ f` (no change of state): the boundary flexibility.
     fn response(&mut self, forces: &[f64], out: &mut [f64]);
     /// Shifts time: `u_{n−1} ← u_n`, `u_n ← u_{n+1}`.

@@ -346,21 +346,21 @@ impl ModalKernel {
     }
 
     /// Fused `A⁻¹ f` of the force rows in `fspec`, one nodal diameter at a time:
-    /// `Δη = diag(1/a) Φ_bᵀ F_k`, then `ΔU_k = Φ_b Δη` while Φ_b is hot in cache. With
-    /// `state`, `Δη` is added to `η_{n+1}` and `ΔU` to `spec_state`; otherwise `spec` is
-    /// overwritten with `ΔU` (the response alone). With `next = Some(a)` (and `state`), the
-    /// predictor of the following step with load amplitude `a` is formed in the same pass, into
-    /// `eta_pred`/`spec_pred`, so that a contact step reads each basis once from memory.
-    fn apply_force_spectrum(&mut self, state: bool, next: Option<f64>) {
+    /// `Δη = diag(1/a) Φ_bᵀ F_k`, then `ΔU_k = Φ_b Δη` while Φ_b is hot in cache. `target`
+    /// says where the increment goes (see [`ForceTarget`]). With `next = Some(a)` (and a state
+    /// target), the predictor of the following step with load amplitude `a` is formed in the
+    /// same pass, into `eta_pred`/`spec_pred`, so that a contact step reads each basis once
+    /// from memory.
+    fn apply_force_spectrum(&mut self, target: ForceTarget, next: Option<f64>) {
         #[cfg(target_arch = "x86_64")]
         {
             if has_avx2_fma() {
                 // SAFETY: the CPU supports the enabled features (checked just above).
-                unsafe { self.apply_force_spectrum_avx2(state, next) };
+                unsafe { self.apply_force_spectrum_avx2(target, next) };
                 return;
             }
         }
-        self.apply_force_spectrum_impl(state, next);
+        self.apply_force_spectrum_impl(target, next);
     }
 
     /// [`ModalKernel::apply_force_spectrum`] compiled for AVX2: its per-mode and per-row loops
@@ -368,12 +368,12 @@ impl ModalKernel {
     /// does not contract `a * b + c` into FMAs.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn apply_force_spectrum_avx2(&mut self, state: bool, next: Option<f64>) {
-        self.apply_force_spectrum_impl(state, next);
+    fn apply_force_spectrum_avx2(&mut self, target: ForceTarget, next: Option<f64>) {
+        self.apply_force_spectrum_impl(target, next);
     }
 
     #[inline(always)]
-    fn apply_force_spectrum_impl(&mut self, state: bool, next: Option<f64>) {
+    fn apply_force_spectrum_impl(&mut self, target: ForceTarget, next: Option<f64>) {
         let stride = 2 * self.nbp;
         for (k, b) in self.blocks.iter().enumerate() {
             let chunk = k * stride..k * stride + b.rows;
@@ -385,16 +385,21 @@ impl ModalKernel {
             for (d, c) in deta.iter_mut().zip(&self.c3[range.clone()]) {
                 *d *= c;
             }
-            if state {
-                for (e, d) in self.eta_next[range.clone()].iter_mut().zip(deta.iter()) {
-                    *e += d;
+            match target {
+                ForceTarget::Response => {
+                    expand(b, b.step_basis(), deta, &mut self.spec[chunk.clone()], yb);
                 }
-                expand(b, b.step_basis(), deta, xb, yb);
-                for (u, d) in self.spec_state[chunk.clone()].iter_mut().zip(xb.iter()) {
-                    *u += d;
+                ForceTarget::State { channels } => {
+                    for (e, d) in self.eta_next[range.clone()].iter_mut().zip(deta.iter()) {
+                        *e += d;
+                    }
+                    if channels {
+                        expand(b, b.step_basis(), deta, xb, yb);
+                        for (u, d) in self.spec_state[chunk.clone()].iter_mut().zip(xb.iter()) {
+                            *u += d;
+                        }
+                    }
                 }
-            } else {
-                expand(b, b.step_basis(), deta, &mut self.spec[chunk.clone()], yb);
             }
             if let Some(a) = next {
                 for i in range.clone() {
@@ -818,6 +823,15 @@ enum Which {
     Tmp,
 }
 
+/// Where [`ModalKernel::apply_force_spectrum`] puts `A⁻¹ f`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ForceTarget {
+    /// The channels of the response alone, into `spec` (no change of state).
+    Response,
+    /// Added to `η_{n+1}`, and with `channels` to its harmonic rows `spec_state`.
+    State { channels: bool },
+}
+
 impl StructureKernel for ModalKernel {
     fn n_sectors(&self) -> usize {
         self.ns
@@ -863,17 +877,21 @@ impl StructureKernel for ModalKernel {
     }
     fn correct(&mut self, forces: &[f64]) {
         self.forces_to_rows(forces);
-        self.apply_force_spectrum(true, None);
+        self.apply_force_spectrum(ForceTarget::State { channels: true }, None);
         self.rows_to_boundary(true, &mut []);
     }
     fn correct_then_predict(&mut self, forces: &[f64], next_amplitude: f64) {
         self.forces_to_rows(forces);
-        self.apply_force_spectrum(true, Some(next_amplitude));
+        self.apply_force_spectrum(ForceTarget::State { channels: true }, Some(next_amplitude));
         self.rows_to_boundary(true, &mut []);
+    }
+    fn correct_state_then_predict(&mut self, forces: &[f64], next_amplitude: f64) {
+        self.forces_to_rows(forces);
+        self.apply_force_spectrum(ForceTarget::State { channels: false }, Some(next_amplitude));
     }
     fn response(&mut self, forces: &[f64], out: &mut [f64]) {
         self.forces_to_rows(forces);
-        self.apply_force_spectrum(false, None);
+        self.apply_force_spectrum(ForceTarget::Response, None);
         self.rows_to_boundary(false, out);
     }
     fn advance(&mut self) {
@@ -1183,27 +1201,31 @@ mod gemv_tests {
         let pattern: Vec<f64> = (0..8 * nb)
             .map(|i| ((i * 13 % 7) as f64 - 3.0) * 1e3)
             .collect();
-        let (mut a, mut b) = (
-            ModalKernel::new(&st, h).unwrap(),
-            ModalKernel::new(&st, h).unwrap(),
-        );
-        a.set_load_pattern(&pattern);
-        b.set_load_pattern(&pattern);
+        // a: separate calls; b: fused; c: fused without the corrected channels.
+        let mut k: Vec<ModalKernel> = (0..3).map(|_| ModalKernel::new(&st, h).unwrap()).collect();
+        k.iter_mut().for_each(|x| x.set_load_pattern(&pattern));
+        let mut corrected = vec![0.0; 8 * nb];
         for step in 0..20 {
             let amp = (step as f64 * 0.3).sin();
             let f: Vec<f64> = (0..8 * nb)
                 .map(|i| ((i + step) % 5) as f64 * 10.0 - 20.0)
                 .collect();
-            a.predict(amp);
-            b.predict(amp);
-            assert_eq!(a.boundary(), b.boundary(), "step {step}");
+            k.iter_mut().for_each(|x| x.predict(amp));
+            assert_eq!(k[0].boundary(), k[1].boundary(), "step {step}");
+            assert_eq!(k[0].boundary(), k[2].boundary(), "step {step}");
             let next = ((step + 1) as f64 * 0.3).sin();
-            a.correct(&f);
-            b.correct_then_predict(&f, next);
-            assert_eq!(b.pred_amplitude, Some(next));
-            assert_eq!(a.boundary(), b.boundary());
-            a.advance();
-            b.advance();
+            k[0].correct(&f);
+            k[1].correct_then_predict(&f, next);
+            k[2].correct_state_then_predict(&f, next);
+            assert_eq!(k[1].pred_amplitude, Some(next));
+            assert_eq!(k[2].pred_amplitude, Some(next));
+            assert_eq!(k[0].boundary(), k[1].boundary());
+            k.iter_mut().for_each(|x| x.advance());
+            assert_eq!(k[0].modal_coordinates(), k[2].modal_coordinates());
+            k[2].node_displacements(&mut corrected);
+            let mut reference = vec![0.0; 8 * nb];
+            k[0].node_displacements(&mut reference);
+            assert_eq!(corrected, reference);
         }
     }
 

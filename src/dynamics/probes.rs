@@ -28,8 +28,9 @@ pub struct SimulationOutput {
     pub blade_tangential_force: Vec<Vec<f64>>,
     /// Minimum predicted gap d* over all blade-tip nodes at the sample step (m).
     pub min_gap: Vec<f64>,
-    /// Largest residual penetration after correction (m, ≥ 0) since the previous sample:
-    /// re-projection of the corrected blade nodes on the corrected spline.
+    /// Largest residual penetration after correction (m, ≥ 0) at the sample step:
+    /// re-projection of the corrected blade nodes on the corrected spline. Only sample steps
+    /// refresh the corrected casing channels in the fast kernel, so only they are checked.
     pub residual_penetration: Vec<f64>,
     /// Impeller and casing energies (J, half-step form).
     pub impeller_energy: EnergySeries,
@@ -41,7 +42,7 @@ pub struct SimulationOutput {
     pub stability_limit: f64,
     pub steps_per_revolution: f64,
     /// Number of steps, steps with at least one active contact, and the largest residual
-    /// penetration (m) and largest vibration level (max |blade radial displacement|, m) of the run.
+    /// penetration (m, over the sample steps) and largest vibration level (max |blade radial displacement|, m) of the run.
     pub n_steps: usize,
     pub contact_steps: usize,
     /// Number of (step, blade-tip node) pairs with a positive Lagrange multiplier.
