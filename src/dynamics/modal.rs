@@ -19,6 +19,9 @@
 //!   diameter while its basis is in L1: `Δη_k = diag(1/a) Φ_b,kᵀ F_k`, `ΔU_k = Φ_b,k Δη_k`
 //!   (added to the kept harmonic rows of the predicted channels) and the next step's predictor
 //!   `Φ_b,k η*_{n+2,k}`; then one inverse real DFT per channel for each.
+//! - **Sparse loads.** Contact forces sit on the few sectors under the touching patches: their
+//!   sector DFT is summed directly (`forces_to_rows`, up to `DIRECT_DFT_SECTORS` sectors)
+//!   instead of one FFT per channel.
 //! - **Harmonic-major rows.** The spectra are kept as the per-ND real rows `[a; b]` that the
 //!   products read and write in place; the sector DFTs do the complex packing.
 //! - The per-ND products of a complex harmonic take both halves of a J-pair in one pass over
@@ -103,6 +106,13 @@ pub struct ModalKernel {
     /// Boundary rows per part, padded: `nb` rounded up to a multiple of 4.
     nbp: usize,
     tbuf: Vec<f64>,
+    /// `(cos kθ_s, sin kθ_s)` by `k·s mod N`, `θ_s = 2πs/N`.
+    twiddle: Vec<(f64, f64)>,
+    /// Sectors with a nonzero load in the last `forces_to_rows` (work buffer).
+    loaded: Vec<usize>,
+    /// Their loads, `nbp` rows each, and twiddle indices (work buffers).
+    fload: Vec<f64>,
+    phase: Vec<usize>,
     cbuf: Vec<Complex64>,
     scratch: Vec<Complex64>,
     xb: Vec<f64>,
@@ -210,6 +220,15 @@ impl ModalKernel {
             deta: vec![0.0; st.blocks.iter().map(|b| b.dim).max().unwrap_or(0)],
             yb: vec![0.0; 2 * nbp],
             tbuf: vec![0.0; ns],
+            twiddle: (0..ns)
+                .map(|m| {
+                    let t = std::f64::consts::TAU * m as f64 / ns as f64;
+                    (t.cos(), t.sin())
+                })
+                .collect(),
+            loaded: Vec::with_capacity(ns),
+            fload: vec![0.0; DIRECT_DFT_SECTORS * nbp],
+            phase: Vec::with_capacity(DIRECT_DFT_SECTORS),
             cbuf: vec![Complex64::new(0.0, 0.0); nspec],
             scratch: vec![Complex64::new(0.0, 0.0); scratch_len],
             xb: vec![0.0; 2 * nbp],
@@ -316,10 +335,35 @@ impl ModalKernel {
     }
 
     /// Forward real DFT of every boundary channel of the sector-major `forces` into the
-    /// harmonic rows `fspec`: `X_k = Σ_s f_s e^{−ikθ_s}` gives `a = w Re X_k`, `b = −w Im X_k`
-    /// (a channel without load gets zero rows without an FFT).
+    /// harmonic rows `fspec`: `X_k = Σ_s f_s e^{−ikθ_s}` gives `a = w Re X_k`, `b = −w Im X_k`.
+    /// Contact loads sit on a few sectors (a patch spans four), so up to
+    /// [`DIRECT_DFT_SECTORS`] loaded sectors are summed directly, which costs far less than one
+    /// FFT per channel; otherwise one real FFT per loaded channel.
     fn forces_to_rows(&mut self, forces: &[f64]) {
         let (nb, nbp, ns) = (self.nb, self.nbp, self.ns);
+        self.loaded.clear();
+        for (s, f) in forces.chunks_exact(nb).enumerate() {
+            // Any nonzero entry, ±0 alike (an OR of the bits without the sign vectorises).
+            if f.iter().fold(0u64, |acc, x| acc | (x.to_bits() << 1)) != 0 {
+                self.loaded.push(s);
+            }
+        }
+        if self.loaded.len() <= DIRECT_DFT_SECTORS {
+            self.fload.iter_mut().for_each(|x| *x = 0.0);
+            for (fl, &s) in self.fload.chunks_exact_mut(nbp).zip(&self.loaded) {
+                fl[..nb].copy_from_slice(&forces[s * nb..(s + 1) * nb]);
+            }
+            #[cfg(target_arch = "x86_64")]
+            {
+                if has_avx2_fma() {
+                    // SAFETY: the CPU supports the enabled features (checked just above).
+                    unsafe { self.direct_force_rows_avx2() };
+                    return;
+                }
+            }
+            self.direct_force_rows();
+            return;
+        }
         for r in 0..nb {
             let mut any = false;
             for s in 0..ns {
@@ -343,6 +387,40 @@ impl ModalKernel {
                 x[nbp + r] = if b.real { 0.0 } else { -b.w * f.im };
             }
         }
+    }
+
+    /// The direct sums of [`ModalKernel::forces_to_rows`] over the `loaded` sectors, whose
+    /// loads are in `fload`; the twiddle index k·s mod N advances by s per harmonic.
+    #[inline(always)]
+    fn direct_force_rows(&mut self) {
+        let (nbp, ns) = (self.nbp, self.ns);
+        self.phase.clear();
+        self.phase.resize(self.loaded.len(), 0);
+        for (x, b) in self.fspec.chunks_exact_mut(2 * nbp).zip(&self.blocks) {
+            let (xa, xb) = x.split_at_mut(nbp);
+            xa.iter_mut().for_each(|v| *v = 0.0);
+            xb.iter_mut().for_each(|v| *v = 0.0);
+            let sectors = self.phase.iter_mut().zip(&self.loaded);
+            for ((m, &s), fl) in sectors.zip(self.fload.chunks_exact(nbp)) {
+                let (c, sn) = self.twiddle[*m];
+                let (c, sn) = (b.w * c, if b.real { 0.0 } else { b.w * sn });
+                for ((a, bb), f) in xa.iter_mut().zip(xb.iter_mut()).zip(fl) {
+                    *a = c.mul_add(*f, *a);
+                    *bb = sn.mul_add(*f, *bb);
+                }
+                *m += s;
+                if *m >= ns {
+                    *m -= ns;
+                }
+            }
+        }
+    }
+
+    /// [`ModalKernel::direct_force_rows`] compiled for AVX2/FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn direct_force_rows_avx2(&mut self) {
+        self.direct_force_rows();
     }
 
     /// Fused `A⁻¹ f` of the force rows in `fspec`, one nodal diameter at a time:
@@ -823,6 +901,10 @@ enum Which {
     Tmp,
 }
 
+/// Most loaded sectors for which [`ModalKernel::forces_to_rows`] sums the DFT directly
+/// (`(N/2 + 1)·S·2nb` products against `nb` real FFTs of length N).
+const DIRECT_DFT_SECTORS: usize = 12;
+
 /// Where [`ModalKernel::apply_force_spectrum`] puts `A⁻¹ f`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum ForceTarget {
@@ -1190,6 +1272,48 @@ mod gemv_tests {
 
     /// `correct_then_predict` + `predict` gives exactly the state and channels of `correct` +
     /// `predict` (the same arithmetic in the same order), and the fused predictor is used.
+    /// The harmonic rows of a load equal the naive real DFT `a_k = w Σ_s cos(kθ_s) f_s`,
+    /// `b_k = w Σ_s sin(kθ_s) f_s`, for a load on three sectors (direct sums) and on every
+    /// sector (FFTs).
+    #[test]
+    fn force_rows_equal_the_naive_dft() {
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let ns = 40;
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, 3, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let mut k = ModalKernel::new(&st, 0.3 * st.stability_limit()).unwrap();
+        let (nb, nbp) = (k.nb, k.nbp);
+        let mut rng = crate::dynamics::synthetic::Lcg(5);
+        for loaded in [vec![3, 4, 27], (0..ns).collect::<Vec<_>>()] {
+            assert_eq!(loaded.len() <= DIRECT_DFT_SECTORS, loaded.len() == 3);
+            let mut f = vec![0.0; ns * nb];
+            for &s in &loaded {
+                f[s * nb..(s + 1) * nb]
+                    .iter_mut()
+                    .for_each(|x| *x = rng.next());
+            }
+            k.forces_to_rows(&f);
+            for (kk, b) in k.blocks.iter().enumerate() {
+                for r in 0..nb {
+                    let (mut a, mut bs) = (0.0, 0.0);
+                    for s in 0..ns {
+                        let t = std::f64::consts::TAU * (kk * s) as f64 / ns as f64;
+                        a += b.w * t.cos() * f[s * nb + r];
+                        bs += if b.real {
+                            0.0
+                        } else {
+                            b.w * t.sin() * f[s * nb + r]
+                        };
+                    }
+                    let x = &k.fspec[kk * 2 * nbp..];
+                    assert!((x[r] - a).abs() < 1e-13, "k {kk} row {r}: {} vs {a}", x[r]);
+                    assert!((x[nbp + r] - bs).abs() < 1e-13, "k {kk} row {r}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn fused_correction_and_prediction_equal_the_separate_calls() {
         use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
