@@ -649,10 +649,7 @@ pub fn simulate(
                 // The casing points the candidates touch, after the correction: moved by
                 // ΔS_k = Σ_l V(k, l) F_l when the channels are not refreshed.
                 for (k, cd) in cands.iter().enumerate() {
-                    let mut x = spline
-                        .evaluate(&q, &cd.param)
-                        .map_err(|e| SimError::Spline(e.to_string()))?
-                        .s;
+                    let mut x = surface_point(&spline, &q, &cd.param)?;
                     if lazy_correction {
                         for (l, (b, lb)) in cands.iter().zip(&lam).enumerate() {
                             x -= vblk[k * nk + l] * (b.fdir * *lb);
@@ -877,16 +874,10 @@ impl PastSurface<'_> {
         node: usize,
         param: &SurfaceParam,
     ) -> Result<Vector3<f64>, SimError> {
-        let at = |q, p| {
-            spline
-                .evaluate(q, p)
-                .map(|e| e.s)
-                .map_err(|e| SimError::Spline(e.to_string()))
-        };
         if let Some((p0, x0)) = &self.touched[node] {
-            return Ok(at(q, p0)? - x0);
+            return Ok(surface_point(spline, q, p0)? - x0);
         }
-        let mut d = at(q, param)? - at(&self.q, param)?;
+        let mut d = surface_point(spline, q, param)? - surface_point(spline, &self.q, param)?;
         if let Some(t) = self.flex {
             for (pb, f) in &self.loads {
                 d -= t.pair_block(param, pb) * f;
@@ -894,6 +885,18 @@ impl PastSurface<'_> {
         }
         Ok(d)
     }
+}
+
+/// The casing surface point `S(p)` (m, global) of control points `q`.
+fn surface_point(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    p: &SurfaceParam,
+) -> Result<Vector3<f64>, SimError> {
+    spline
+        .evaluate(q, p)
+        .map(|e| e.s)
+        .map_err(|e| SimError::Spline(e.to_string()))
 }
 
 /// Frames and spline state of the current step, as seen by the coating stage.
