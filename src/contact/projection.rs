@@ -297,6 +297,11 @@ fn check_lengths(nodes: usize, warm: usize, out: usize) -> Result<(), NodeProjec
 /// functions are non-negative and sum to one: the convex-hull property). So a node projected
 /// at `x₀` with gap `d₀` has now, at `x`, a gap `d ≥ d₀ − |x − x₀| − D`, where `D` sums the
 /// largest control-point displacement of every surface update since.
+///
+/// Warm starts are extrapolated: a node projected in each of the last two calls starts from
+/// its closest point moved on by the last change (a second difference away from the answer,
+/// so Newton usually stops after one iteration); any other node sweeping about the casing
+/// axis (a blade tip) starts from its last closest point advanced by the angle swept since.
 #[derive(Clone, Debug)]
 pub struct GapBounds {
     /// Gap (m), position and cumulative surface drift (m) at each node's last projection.
@@ -306,6 +311,15 @@ pub struct GapBounds {
     /// Cumulative surface drift (m) and the control points it was last measured on.
     drift: f64,
     q_last: Vec<Vector3<f64>>,
+    /// Patch lengths along `u` per radian swept counterclockwise about z (±N/2π, the sign
+    /// from the order of the sectors).
+    u_per_radian: f64,
+    /// Calls so far (from 1, so that no node counts as projected in the previous call before
+    /// the first), the call of each node's last projection, and the change of its global
+    /// parameter `(U, V)` over its last two projections when they were in consecutive calls.
+    calls: u64,
+    last_call: Vec<u64>,
+    trend: Vec<Option<(f64, f64)>>,
 }
 
 impl GapBounds {
@@ -317,6 +331,10 @@ impl GapBounds {
             drift_then: vec![0.0; n_nodes],
             drift: 0.0,
             q_last: Vec::new(),
+            u_per_radian: 0.0,
+            calls: 1,
+            last_call: vec![0; n_nodes],
+            trend: vec![None; n_nodes],
         }
     }
 
@@ -343,23 +361,48 @@ impl GapBounds {
         check_lengths(xs.len(), warm.len(), out.len())?;
         check_lengths(xs.len(), self.gap.len(), out.len())?;
         if self.q_last.len() == q.len() {
-            let moved = q
-                .iter()
-                .zip(&self.q_last)
-                .fold(0.0f64, |m, (a, b)| m.max((a - b).norm_squared()));
+            let mut moved = 0.0f64;
+            for (last, x) in self.q_last.iter_mut().zip(q) {
+                moved = moved.max((x - *last).norm_squared());
+                *last = *x;
+            }
             self.drift += moved.sqrt();
-            self.q_last.copy_from_slice(q);
         } else {
             // A new surface (first call): no earlier bound applies.
             self.q_last = q.to_vec();
             self.gap.iter_mut().for_each(|g| *g = f64::NEG_INFINITY);
+            let (p0, p1) = (data_point(spline, q, 0, 0), data_point(spline, q, 1, 0));
+            let ccw = p0.x * p1.y - p0.y * p1.x >= 0.0;
+            let n = spline.n_sectors() as f64 / std::f64::consts::TAU;
+            self.u_per_radian = if ccw { n } else { -n };
         }
+        self.calls += 1;
+        let n = spline.n_sectors() as f64;
         let mut projected = 0;
         for (node, x) in xs.iter().enumerate() {
             if !all && self.lower_bound(node, x) > margin {
                 continue;
             }
+            let start = warm[node].map(|p| (p.i as f64 + p.u, p.j as f64 + p.v));
+            let consecutive = self.last_call[node] + 1 == self.calls;
+            if let Some((gu, gv)) = start {
+                let (du, dv) = self.trend[node].filter(|_| consecutive).unwrap_or_else(|| {
+                    let x0 = self.x[node];
+                    let swept = (x0.x * x.y - x0.y * x.x).atan2(x0.x * x.x + x0.y * x.y);
+                    (swept * self.u_per_radian, 0.0)
+                });
+                warm[node] = Some(to_param(spline, (gu + du).rem_euclid(n), gv + dv));
+            }
             project_node(spline, q, node, x, &mut warm[node], eps_nr, &mut out[node])?;
+            let p = out[node].param;
+            self.trend[node] = start.filter(|_| consecutive).map(|(gu, gv)| {
+                let du = (p.i as f64 + p.u - gu).rem_euclid(n);
+                (
+                    if du > 0.5 * n { du - n } else { du },
+                    p.j as f64 + p.v - gv,
+                )
+            });
+            self.last_call[node] = self.calls;
             self.gap[node] = out[node].gap;
             self.x[node] = *x;
             self.drift_then[node] = self.drift;
@@ -543,6 +586,68 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn warm_starts_follow_the_angle_swept_by_the_node() {
+        // Nodes sweeping 0.02 rad per step (0.08 patch lengths) inside a cylinder whose sectors
+        // run either way round. The second projection starts from the first advanced by the
+        // swept angle, later ones from the extrapolated parameter (one Newton iteration); the
+        // plain warm start of `project_nodes` must cover the sweep. Both find the same points.
+        for mirrored in [false, true] {
+            let mut c = cylinder();
+            if mirrored {
+                c.nodes.iter_mut().for_each(|x| x.y = -x.y);
+                c.sp.orient_toward_axis(&c.nodes).unwrap();
+                c.sp.control_points(&c.nodes, &mut c.q).unwrap();
+            }
+            let mut bounds = GapBounds::new(3);
+            let (mut warm_swept, mut warm_plain) = (vec![None; 3], vec![None; 3]);
+            let mut swept = vec![Projection::default(); 3];
+            let mut plain = vec![Projection::default(); 3];
+            // Iterations of [the second projection, later ones] × [GapBounds, plain].
+            let mut iterations = [[0; 2]; 2];
+            for step in 0..50 {
+                let xs: Vec<Vector3<f64>> = (0..3)
+                    .map(|k| {
+                        let th = 0.02 * step as f64 + 2.0 * k as f64;
+                        Vector3::new(0.29 * th.cos(), 0.29 * th.sin(), 0.02 + 0.03 * k as f64)
+                    })
+                    .collect();
+                bounds
+                    .project_near(
+                        &c.sp,
+                        &c.q,
+                        &xs,
+                        &mut warm_swept,
+                        DEFAULT_EPS_NR,
+                        &mut swept,
+                        0.0,
+                        true,
+                    )
+                    .unwrap();
+                project_nodes(
+                    &c.sp,
+                    &c.q,
+                    &xs,
+                    &mut warm_plain,
+                    DEFAULT_EPS_NR,
+                    &mut plain,
+                )
+                .unwrap();
+                for k in 0..3 {
+                    assert!((swept[k].point - plain[k].point).norm() < 1e-9);
+                    if step > 0 {
+                        let later = usize::from(step > 1);
+                        iterations[later][0] += swept[k].iterations;
+                        iterations[later][1] += plain[k].iterations;
+                    }
+                }
+            }
+            let [second, later] = iterations;
+            assert!(second[0] < second[1], "{second:?}");
+            assert!(later[0] == 3 * 48 && later[1] > later[0], "{later:?}");
         }
     }
 
