@@ -685,7 +685,8 @@ pub fn simulate(
         }
         gam_prev.copy_from_slice(&gam);
         if kc.is_some() {
-            past.q.copy_from_slice(&q);
+            // The next step's spline rewrites every control point of `q` before reading any.
+            std::mem::swap(&mut past.q, &mut q);
             std::mem::swap(&mut past.loads, &mut step_loads);
             step_loads.clear();
             std::mem::swap(&mut past.touched, &mut touched);
@@ -1207,17 +1208,21 @@ impl CasingFrames {
                 .map_err(|e| SimError::Spline(e.to_string()));
         }
         let (n, nb) = (self.rot.len(), 3 * m);
-        for (cl, r) in self.rot.iter().enumerate() {
-            for k in 1..=m {
-                let at = spline.control_index(cl + 1, k);
-                q[at] = self.q_rest[at] + r * node_disp(ub, cl, nb, k - 1);
+        // Control-point columns are contiguous (`control_index`); column cl + 1 holds class cl.
+        let columns = q.chunks_exact_mut(m + 2).skip(1);
+        let rest = self.q_rest.chunks_exact(m + 2).skip(1);
+        for (((col, rest), u), r) in columns.zip(rest).zip(ub.chunks_exact(nb)).zip(&self.rot) {
+            // R(θ) is a rotation about z.
+            let (c, s) = (r[(0, 0)], r[(1, 0)]);
+            for ((x, x0), d) in col[1..=m]
+                .iter_mut()
+                .zip(&rest[1..=m])
+                .zip(u.chunks_exact(3))
+            {
+                *x = x0 + Vector3::new(c * d[0] - s * d[1], s * d[0] + c * d[1], d[2]);
             }
-            let (lo, hi) = (
-                spline.control_index(cl + 1, 0),
-                spline.control_index(cl + 1, m + 1),
-            );
-            q[lo] = q[lo + 1] * 2.0 - q[lo + 2];
-            q[hi] = q[hi - 1] * 2.0 - q[hi - 2];
+            col[0] = col[1] * 2.0 - col[2];
+            col[m + 1] = col[m] * 2.0 - col[m - 1];
         }
         for (dst, src) in [(0, n), (n + 1, 1), (n + 2, 2)] {
             for k in 0..m + 2 {
