@@ -21,7 +21,8 @@
 //!   `Φ_b,k η*_{n+2,k}`; then one inverse real DFT per channel for each.
 //! - **Sparse loads.** Contact forces sit on the few sectors under the touching patches: their
 //!   sector DFT is summed directly (`forces_to_rows`, up to `DIRECT_DFT_SECTORS` sectors)
-//!   instead of one FFT per channel.
+//!   instead of one FFT per channel. A structure of few sectors (an impeller, up to
+//!   `DIRECT_SYNTH_SECTORS`) also gets its boundary by direct sums (`rows_to_boundary`).
 //! - **Harmonic-major rows.** The spectra are kept as the per-ND real rows `[a; b]` that the
 //!   products read and write in place; the sector DFTs do the complex packing.
 //! - The per-ND products of a complex harmonic take both halves of a J-pair in one pass over
@@ -305,7 +306,16 @@ impl ModalKernel {
     /// or `spec` (into `out`): harmonic k enters the `c2r` spectrum as `w a` (real harmonic)
     /// or `w (a − i b)/2`, so that `u_s = w (a cos kθ_s + b sin kθ_s)` (module doc of
     /// `structure`).
+    /// Up to [`DIRECT_SYNTH_SECTORS`] sectors (an impeller) the sums are taken directly.
     fn rows_to_boundary(&mut self, state: bool, out: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if self.ns <= DIRECT_SYNTH_SECTORS && has_avx2_fma() {
+                // SAFETY: the CPU supports the enabled features (checked just above).
+                unsafe { self.direct_rows_to_boundary_avx2(state, out) };
+                return;
+            }
+        }
         let (nb, nbp) = (self.nb, self.nbp);
         let (rows, target): (&[f64], &mut [f64]) = if state {
             (&self.spec_state, &mut self.ub)
@@ -334,6 +344,44 @@ impl ModalKernel {
         }
     }
 
+    /// [`ModalKernel::rows_to_boundary`] summed directly, sector by sector:
+    /// `u_s = Σ_k w_k (a_k cos kθ_s + b_k sin kθ_s)` (`b = 0` for a real harmonic), with the
+    /// sums of a band of up to 16 rows in registers over the harmonics.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn direct_rows_to_boundary_avx2(&mut self, state: bool, out: &mut [f64]) {
+        let (nb, nbp, ns) = (self.nb, self.nbp, self.ns);
+        let (rows, target): (&[f64], &mut [f64]) = if state {
+            (&self.spec_state, &mut self.ub)
+        } else {
+            (&self.spec, out)
+        };
+        let mut weights = [(0.0, 0.0); DIRECT_SYNTH_SECTORS / 2 + 1];
+        let weights = &mut weights[..self.blocks.len()];
+        let u = &mut self.xb[..nbp];
+        for (s, dst) in target.chunks_exact_mut(nb).enumerate() {
+            for (k, (cs, b)) in weights.iter_mut().zip(&self.blocks).enumerate() {
+                let (c, sn) = self.twiddle[k * s % ns];
+                *cs = (b.w * c, if b.real { 0.0 } else { b.w * sn });
+            }
+            let mut r = 0;
+            while r < nbp {
+                // SAFETY: rows r..r + 4W lie inside both parts of every harmonic's rows and
+                // inside `u` (`nbp` is a multiple of 4).
+                unsafe {
+                    match (nbp - r) / 4 {
+                        1 => synth_band::<1>(weights, rows, nbp, r, u),
+                        2 => synth_band::<2>(weights, rows, nbp, r, u),
+                        3 => synth_band::<3>(weights, rows, nbp, r, u),
+                        _ => synth_band::<4>(weights, rows, nbp, r, u),
+                    }
+                }
+                r += 16.min(nbp - r);
+            }
+            dst.copy_from_slice(&u[..nb]);
+        }
+    }
+
     /// Forward real DFT of every boundary channel of the sector-major `forces` into the
     /// harmonic rows `fspec`: `X_k = Σ_s f_s e^{−ikθ_s}` gives `a = w Re X_k`, `b = −w Im X_k`.
     /// Contact loads sit on a few sectors (a patch spans four), so up to
@@ -349,7 +397,7 @@ impl ModalKernel {
             }
         }
         if self.loaded.len() <= DIRECT_DFT_SECTORS {
-            self.fload.iter_mut().for_each(|x| *x = 0.0);
+            // Rows nb..nbp of `fload` stay zero from construction.
             for (fl, &s) in self.fload.chunks_exact_mut(nbp).zip(&self.loaded) {
                 fl[..nb].copy_from_slice(&forces[s * nb..(s + 1) * nb]);
             }
@@ -391,7 +439,6 @@ impl ModalKernel {
 
     /// The direct sums of [`ModalKernel::forces_to_rows`] over the `loaded` sectors, whose
     /// loads are in `fload`; the twiddle index k·s mod N advances by s per harmonic.
-    #[inline(always)]
     fn direct_force_rows(&mut self) {
         let (nbp, ns) = (self.nbp, self.ns);
         self.phase.clear();
@@ -416,11 +463,43 @@ impl ModalKernel {
         }
     }
 
-    /// [`ModalKernel::direct_force_rows`] compiled for AVX2/FMA.
+    /// [`ModalKernel::direct_force_rows`] in explicit AVX2/FMA code: per harmonic, the sums of
+    /// a band of up to 16 rows stay in registers over the loaded sectors (the same products
+    /// and order of accumulation).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     fn direct_force_rows_avx2(&mut self) {
-        self.direct_force_rows();
+        let (nbp, ns) = (self.nbp, self.ns);
+        self.phase.clear();
+        self.phase.resize(self.loaded.len(), 0);
+        let mut weights = [(0.0, 0.0); DIRECT_DFT_SECTORS];
+        let weights = &mut weights[..self.loaded.len()];
+        for (x, b) in self.fspec.chunks_exact_mut(2 * nbp).zip(&self.blocks) {
+            let sectors = self.phase.iter_mut().zip(&self.loaded);
+            for (cs, (m, &s)) in weights.iter_mut().zip(sectors) {
+                let (c, sn) = self.twiddle[*m];
+                *cs = (b.w * c, if b.real { 0.0 } else { b.w * sn });
+                *m += s;
+                if *m >= ns {
+                    *m -= ns;
+                }
+            }
+            let (xa, xb) = x.split_at_mut(nbp);
+            let mut r = 0;
+            while r < nbp {
+                // SAFETY: rows r..r + 4W lie inside every load of `fload` and in `xa`, `xb`
+                // (`nbp` is a multiple of 4).
+                unsafe {
+                    match (nbp - r) / 4 {
+                        1 => dft_band::<1>(weights, &self.fload, nbp, r, xa, xb),
+                        2 => dft_band::<2>(weights, &self.fload, nbp, r, xa, xb),
+                        3 => dft_band::<3>(weights, &self.fload, nbp, r, xa, xb),
+                        _ => dft_band::<4>(weights, &self.fload, nbp, r, xa, xb),
+                    }
+                }
+                r += 16.min(nbp - r);
+            }
+        }
     }
 
     /// Fused `A⁻¹ f` of the force rows in `fspec`, one nodal diameter at a time:
@@ -715,18 +794,128 @@ unsafe fn expand_band<const W: usize>(
     }
 }
 
+/// Rows `r0..r0 + 4W` of one harmonic of [`ModalKernel::direct_force_rows_avx2`]:
+/// `x_a = Σ_j c_j f_j`, `x_b = Σ_j s_j f_j` over the loaded sectors j, with `(c_j, s_j)` in
+/// `weights` and `f_j` the rows of load j in `fload` (stride `nbp`).
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; `r0 + 4W ≤ nbp ≤ xa.len(), xb.len()`,
+/// `fload.len() ≥ weights.len()·nbp`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn dft_band<const W: usize>(
+    weights: &[(f64, f64)],
+    fload: &[f64],
+    nbp: usize,
+    r0: usize,
+    xa: &mut [f64],
+    xb: &mut [f64],
+) {
+    use std::arch::x86_64::{
+        _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+    };
+    // SAFETY: the caller guarantees the bounds.
+    unsafe {
+        let mut sa = [_mm256_setzero_pd(); W];
+        let mut sb = [_mm256_setzero_pd(); W];
+        for (j, &(c, s)) in weights.iter().enumerate() {
+            let (c, s) = (_mm256_set1_pd(c), _mm256_set1_pd(s));
+            let f = fload.as_ptr().add(j * nbp + r0);
+            for i in 0..W {
+                let v = _mm256_loadu_pd(f.add(4 * i));
+                sa[i] = _mm256_fmadd_pd(c, v, sa[i]);
+                sb[i] = _mm256_fmadd_pd(s, v, sb[i]);
+            }
+        }
+        for i in 0..W {
+            _mm256_storeu_pd(xa.as_mut_ptr().add(r0 + 4 * i), sa[i]);
+            _mm256_storeu_pd(xb.as_mut_ptr().add(r0 + 4 * i), sb[i]);
+        }
+    }
+}
+
+/// Rows `r0..r0 + 4W` of one sector of [`ModalKernel::direct_rows_to_boundary_avx2`]:
+/// `u = Σ_k (c_k a_k + s_k b_k)` over the harmonics k, with `(c_k, s_k)` in `weights` and
+/// the rows `[a_k; b_k]` of harmonic k at `2k·nbp` in `rows`.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; `r0 + 4W ≤ nbp ≤ u.len()`, `rows.len() ≥ 2·nbp·weights.len()`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn synth_band<const W: usize>(
+    weights: &[(f64, f64)],
+    rows: &[f64],
+    nbp: usize,
+    r0: usize,
+    u: &mut [f64],
+) {
+    use std::arch::x86_64::{
+        _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+    };
+    // SAFETY: the caller guarantees the bounds.
+    unsafe {
+        let mut acc = [_mm256_setzero_pd(); W];
+        for (k, &(c, s)) in weights.iter().enumerate() {
+            let (c, s) = (_mm256_set1_pd(c), _mm256_set1_pd(s));
+            let a = rows.as_ptr().add(2 * k * nbp + r0);
+            for (i, acc) in acc.iter_mut().enumerate() {
+                let (va, vb) = (
+                    _mm256_loadu_pd(a.add(4 * i)),
+                    _mm256_loadu_pd(a.add(nbp + 4 * i)),
+                );
+                *acc = _mm256_fmadd_pd(s, vb, _mm256_fmadd_pd(c, va, *acc));
+            }
+        }
+        for (i, acc) in acc.iter().enumerate() {
+            _mm256_storeu_pd(u.as_mut_ptr().add(r0 + 4 * i), *acc);
+        }
+    }
+}
+
 /// [`project`] of a complex harmonic in one pass over its half basis (see
 /// [`expand_pair_avx2`]): `g₁ = V_aᵀ x_a + V_bᵀ x_b`, `g₂ = V_aᵀ x_b − V_bᵀ x_a`, four
 /// columns at a time with their eight sums reduced together.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn project_pair_avx2(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
+    let n = g.len() / 2;
+    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h.is_multiple_of(4));
+    let (g1, g2) = g.split_at_mut(n);
+    let mut p = 0;
+    while p < n {
+        // SAFETY: columns p..p + W lie inside `basis`, rows inside `x` (checked above).
+        unsafe {
+            match n - p {
+                1 => project_columns::<1>(basis, h, x, g1, g2, p),
+                2 => project_columns::<2>(basis, h, x, g1, g2, p),
+                3 => project_columns::<3>(basis, h, x, g1, g2, p),
+                _ => project_columns::<4>(basis, h, x, g1, g2, p),
+            }
+        }
+        p += 4.min(n - p);
+    }
+}
+
+/// Columns `p0..p0 + W` of [`project_pair_avx2`]. `W` is a constant so that the 2W
+/// accumulators stay in registers and the sums are stored by fixed-length copies.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; `p0 + W ≤ g1.len() = g2.len()`, `basis.len() ≥ 2h(p0 + W)`,
+/// `x.len() ≥ 2h`, `h` a multiple of 4.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn project_columns<const W: usize>(
+    basis: &[f64],
+    h: usize,
+    x: &[f64],
+    g1: &mut [f64],
+    g2: &mut [f64],
+    p0: usize,
+) {
     use std::arch::x86_64::{
         __m256d, _mm256_add_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd,
         _mm256_permute2f128_pd, _mm256_setzero_pd, _mm256_storeu_pd,
     };
-    let n = g.len() / 2;
-    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h.is_multiple_of(4));
     // Lane sums of four accumulators as one vector [Σa, Σb, Σc, Σd].
     let reduce4 = |a: __m256d, b: __m256d, c: __m256d, d: __m256d| {
         let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
@@ -735,40 +924,25 @@ fn project_pair_avx2(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
             _mm256_permute2f128_pd::<0x31>(ab, cd),
         )
     };
-    let mut p = 0;
-    while p < n {
-        let width = (n - p).min(4);
-        let mut g1 = [_mm256_setzero_pd(); 4];
-        let mut g2 = [_mm256_setzero_pd(); 4];
-        let mut r = 0;
-        while r < h {
-            // SAFETY: r + 4 ≤ h and p + j < n, so every load is inside `x` and `basis`
-            // (checked above).
-            unsafe {
-                let xa = _mm256_loadu_pd(x.as_ptr().add(r));
-                let xb = _mm256_loadu_pd(x.as_ptr().add(h + r));
-                for j in 0..width {
-                    let col = basis.as_ptr().add(2 * h * (p + j) + r);
-                    let (va, vb) = (_mm256_loadu_pd(col), _mm256_loadu_pd(col.add(h)));
-                    g1[j] = _mm256_fmadd_pd(vb, xb, _mm256_fmadd_pd(va, xa, g1[j]));
-                    g2[j] = _mm256_fnmadd_pd(vb, xa, _mm256_fmadd_pd(va, xb, g2[j]));
-                }
+    // SAFETY: the caller guarantees the bounds.
+    unsafe {
+        let mut a1 = [_mm256_setzero_pd(); 4];
+        let mut a2 = [_mm256_setzero_pd(); 4];
+        for r in (0..h).step_by(4) {
+            let xa = _mm256_loadu_pd(x.as_ptr().add(r));
+            let xb = _mm256_loadu_pd(x.as_ptr().add(h + r));
+            for j in 0..W {
+                let col = basis.as_ptr().add(2 * h * (p0 + j) + r);
+                let (va, vb) = (_mm256_loadu_pd(col), _mm256_loadu_pd(col.add(h)));
+                a1[j] = _mm256_fmadd_pd(vb, xb, _mm256_fmadd_pd(va, xa, a1[j]));
+                a2[j] = _mm256_fnmadd_pd(vb, xa, _mm256_fmadd_pd(va, xb, a2[j]));
             }
-            r += 4;
         }
-        let (s1, s2) = (
-            reduce4(g1[0], g1[1], g1[2], g1[3]),
-            reduce4(g2[0], g2[1], g2[2], g2[3]),
-        );
         let (mut t1, mut t2) = ([0.0f64; 4], [0.0f64; 4]);
-        // SAFETY: `t1`, `t2` hold four f64.
-        unsafe {
-            _mm256_storeu_pd(t1.as_mut_ptr(), s1);
-            _mm256_storeu_pd(t2.as_mut_ptr(), s2);
-        }
-        g[p..p + width].copy_from_slice(&t1[..width]);
-        g[n + p..n + p + width].copy_from_slice(&t2[..width]);
-        p += width;
+        _mm256_storeu_pd(t1.as_mut_ptr(), reduce4(a1[0], a1[1], a1[2], a1[3]));
+        _mm256_storeu_pd(t2.as_mut_ptr(), reduce4(a2[0], a2[1], a2[2], a2[3]));
+        g1[p0..p0 + W].copy_from_slice(&t1[..W]);
+        g2[p0..p0 + W].copy_from_slice(&t2[..W]);
     }
 }
 
@@ -902,8 +1076,14 @@ enum Which {
 }
 
 /// Most loaded sectors for which [`ModalKernel::forces_to_rows`] sums the DFT directly
-/// (`(N/2 + 1)·S·2nb` products against `nb` real FFTs of length N).
-const DIRECT_DFT_SECTORS: usize = 12;
+/// (`(N/2 + 1)·S·2nb` products against `nb` real FFTs of length N). On the built-in casing
+/// (N = 100, nb = 15) the direct sums cost about 2.5 µs at 4 sectors and 4–5 µs at 24,
+/// the FFTs 6–9 µs at any load.
+const DIRECT_DFT_SECTORS: usize = 24;
+
+/// Most sectors for which [`ModalKernel::rows_to_boundary`] sums the inverse DFT directly
+/// (`N·(N/2 + 1)·2nb` products against `nb` real FFTs of length N, each with its packing).
+const DIRECT_SYNTH_SECTORS: usize = 16;
 
 /// Where [`ModalKernel::apply_force_spectrum`] puts `A⁻¹ f`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1309,6 +1489,44 @@ mod gemv_tests {
                     let x = &k.fspec[kk * 2 * nbp..];
                     assert!((x[r] - a).abs() < 1e-13, "k {kk} row {r}: {} vs {a}", x[r]);
                     assert!((x[nbp + r] - bs).abs() < 1e-13, "k {kk} row {r}");
+                }
+            }
+        }
+    }
+
+    /// The inverse of the above, `rows_to_boundary`, on few sectors (direct sums) and on many
+    /// (FFTs), against the naive sums `u_s = Σ_k w_k (a_k cos kθ_s + b_k sin kθ_s)`.
+    #[test]
+    fn boundary_equals_the_naive_inverse_dft() {
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let mut rng = crate::dynamics::synthetic::Lcg(9);
+        for ns in [10, 40] {
+            let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, 3, 2));
+            let st = Structure::new(&rom, 0.0).unwrap();
+            let mut k = ModalKernel::new(&st, 0.3 * st.stability_limit()).unwrap();
+            let (nb, nbp) = (k.nb, k.nbp);
+            assert_eq!(ns <= DIRECT_SYNTH_SECTORS, ns == 10);
+            for (x, b) in k.spec.chunks_exact_mut(2 * nbp).zip(&k.blocks) {
+                for r in 0..nb {
+                    x[r] = rng.next();
+                    x[nbp + r] = if b.real { 0.0 } else { rng.next() };
+                }
+            }
+            let mut out = vec![0.0; ns * nb];
+            k.rows_to_boundary(false, &mut out);
+            for s in 0..ns {
+                for r in 0..nb {
+                    let mut u = 0.0;
+                    for (kk, (x, b)) in k.spec.chunks_exact(2 * nbp).zip(&k.blocks).enumerate() {
+                        let t = std::f64::consts::TAU * (kk * s) as f64 / ns as f64;
+                        u += b.w * (x[r] * t.cos() + x[nbp + r] * t.sin());
+                    }
+                    let got = out[s * nb + r];
+                    assert!(
+                        (got - u).abs() < 1e-13,
+                        "N {ns} sector {s} row {r}: {got} vs {u}"
+                    );
                 }
             }
         }
