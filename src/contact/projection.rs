@@ -343,6 +343,16 @@ impl GapBounds {
         self.gap[k] - (x - self.x[k]).norm() - (self.drift - self.drift_then[k])
     }
 
+    /// Guessed change of node `k`'s global parameter since its last projection, now at `x`:
+    /// its last change if it was projected in the previous call too, else the angle it swept.
+    fn step_guess(&self, k: usize, x: &Vector3<f64>, consecutive: bool) -> (f64, f64) {
+        self.trend[k].filter(|_| consecutive).unwrap_or_else(|| {
+            let x0 = self.x[k];
+            let swept = (x0.x * x.y - x0.y * x.x).atan2(x0.x * x.x + x0.y * x.y);
+            (swept * self.u_per_radian, 0.0)
+        })
+    }
+
     /// [`project_nodes`] restricted to the nodes whose gap bound is not above `margin` (m),
     /// or all nodes with `all`. The others keep their last `out` and warm start (their gap
     /// there is stale, but provably above `margin`). Returns the number of nodes projected.
@@ -386,21 +396,16 @@ impl GapBounds {
             let start = warm[node].map(|p| (p.i as f64 + p.u, p.j as f64 + p.v));
             let consecutive = self.last_call[node] + 1 == self.calls;
             if let Some((gu, gv)) = start {
-                let (du, dv) = self.trend[node].filter(|_| consecutive).unwrap_or_else(|| {
-                    let x0 = self.x[node];
-                    let swept = (x0.x * x.y - x0.y * x.x).atan2(x0.x * x.x + x0.y * x.y);
-                    (swept * self.u_per_radian, 0.0)
-                });
+                let (du, dv) = self.step_guess(node, x, consecutive);
                 warm[node] = Some(to_param(spline, (gu + du).rem_euclid(n), gv + dv));
             }
             project_node(spline, q, node, x, &mut warm[node], eps_nr, &mut out[node])?;
             let p = out[node].param;
             self.trend[node] = start.filter(|_| consecutive).map(|(gu, gv)| {
+                // The shorter way round the closed direction.
                 let du = (p.i as f64 + p.u - gu).rem_euclid(n);
-                (
-                    if du > 0.5 * n { du - n } else { du },
-                    p.j as f64 + p.v - gv,
-                )
+                let du = if du > 0.5 * n { du - n } else { du };
+                (du, p.j as f64 + p.v - gv)
             });
             self.last_call[node] = self.calls;
             self.gap[node] = out[node].gap;
