@@ -37,6 +37,21 @@ use realfft::num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::sync::Arc;
 
+/// `f::<W>(args)` with the compile-time width `W = min(left, 4)` (`left ≥ 1`): the explicit
+/// SIMD kernels take bands of up to four vectors or columns, with their accumulators in
+/// registers.
+#[cfg(target_arch = "x86_64")]
+macro_rules! by_width {
+    ($left:expr, $f:ident($($arg:expr),*)) => {
+        match $left {
+            1 => $f::<1>($($arg),*),
+            2 => $f::<2>($($arg),*),
+            3 => $f::<3>($($arg),*),
+            _ => $f::<4>($($arg),*),
+        }
+    };
+}
+
 struct Block {
     offset: usize,
     /// Real-form order: `n` (real harmonic) or `2n`.
@@ -368,14 +383,7 @@ impl ModalKernel {
             while r < nbp {
                 // SAFETY: rows r..r + 4W lie inside both parts of every harmonic's rows and
                 // inside `u` (`nbp` is a multiple of 4).
-                unsafe {
-                    match (nbp - r) / 4 {
-                        1 => synth_band::<1>(weights, rows, nbp, r, u),
-                        2 => synth_band::<2>(weights, rows, nbp, r, u),
-                        3 => synth_band::<3>(weights, rows, nbp, r, u),
-                        _ => synth_band::<4>(weights, rows, nbp, r, u),
-                    }
-                }
+                unsafe { by_width!((nbp - r) / 4, synth_band(weights, rows, nbp, r, u)) }
                 r += 16.min(nbp - r);
             }
             dst.copy_from_slice(&u[..nb]);
@@ -490,12 +498,10 @@ impl ModalKernel {
                 // SAFETY: rows r..r + 4W lie inside every load of `fload` and in `xa`, `xb`
                 // (`nbp` is a multiple of 4).
                 unsafe {
-                    match (nbp - r) / 4 {
-                        1 => dft_band::<1>(weights, &self.fload, nbp, r, xa, xb),
-                        2 => dft_band::<2>(weights, &self.fload, nbp, r, xa, xb),
-                        3 => dft_band::<3>(weights, &self.fload, nbp, r, xa, xb),
-                        _ => dft_band::<4>(weights, &self.fload, nbp, r, xa, xb),
-                    }
+                    by_width!(
+                        (nbp - r) / 4,
+                        dft_band(weights, &self.fload, nbp, r, xa, xb)
+                    )
                 }
                 r += 16.min(nbp - r);
             }
@@ -743,14 +749,7 @@ fn expand_pair_avx2(basis: &[f64], h: usize, eta: &[f64], x: &mut [f64]) {
     let mut r = 0;
     while r < h {
         // SAFETY: rows r..r + 4W of both halves lie inside every column and `x` (checked above).
-        unsafe {
-            match (h - r) / 4 {
-                1 => expand_band::<1>(basis, h, e1, e2, x, r),
-                2 => expand_band::<2>(basis, h, e1, e2, x, r),
-                3 => expand_band::<3>(basis, h, e1, e2, x, r),
-                _ => expand_band::<4>(basis, h, e1, e2, x, r),
-            }
-        }
+        unsafe { by_width!((h - r) / 4, expand_band(basis, h, e1, e2, x, r)) }
         r += 16.min(h - r);
     }
 }
@@ -884,14 +883,7 @@ fn project_pair_avx2(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
     let mut p = 0;
     while p < n {
         // SAFETY: columns p..p + W lie inside `basis`, rows inside `x` (checked above).
-        unsafe {
-            match n - p {
-                1 => project_columns::<1>(basis, h, x, g1, g2, p),
-                2 => project_columns::<2>(basis, h, x, g1, g2, p),
-                3 => project_columns::<3>(basis, h, x, g1, g2, p),
-                _ => project_columns::<4>(basis, h, x, g1, g2, p),
-            }
-        }
+        unsafe { by_width!(n - p, project_columns(basis, h, x, g1, g2, p)) }
         p += 4.min(n - p);
     }
 }
