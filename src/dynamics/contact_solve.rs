@@ -239,11 +239,10 @@ impl ControlFlexTable {
                     mb[e] = madd::<FMA>(uk[alpha], m[e], mb[e]);
                 }
             }
-            // Column-major 3×3 (nalgebra layout), in the frame of class clb: R mb Rᵀ.
+            // Column-major 3×3 (nalgebra layout), in the frame of class clb: R mb Rᵀ, with R
+            // the rotation by the class angle about z.
             let clb = (pl.i + beta + n - 1) % n;
-            let (c, s) = self.cs[clb];
-            let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
-            out += (r * Matrix3::from_column_slice(&mb[..9]) * r.transpose()) * ul[beta];
+            out += rotate_about_z(self.cs[clb], &mb) * ul[beta];
         }
         out
     }
@@ -281,6 +280,26 @@ impl ControlFlexTable {
             k => vec![(k - 1, 1.0)],
         }
     }
+}
+
+/// `R M Rᵀ` for the column-major 3×3 `M` in `m[..9]` and the rotation `R` about z by the
+/// angle of `(cos, sin)`: the 2×2 block turns on both sides, the z column and row on one.
+#[inline(always)]
+fn rotate_about_z((c, s): (f64, f64), m: &[f64; 12]) -> Matrix3<f64> {
+    // Q A with A = [[m0, m3], [m1, m4]], Q = [[c, −s], [s, c]].
+    let (p00, p01) = (c * m[0] - s * m[1], c * m[3] - s * m[4]);
+    let (p10, p11) = (s * m[0] + c * m[1], s * m[3] + c * m[4]);
+    Matrix3::new(
+        p00 * c - p01 * s,
+        p00 * s + p01 * c,
+        c * m[6] - s * m[7],
+        p10 * c - p11 * s,
+        p10 * s + p11 * c,
+        s * m[6] + c * m[7],
+        c * m[2] - s * m[5],
+        s * m[2] + c * m[5],
+        m[8],
+    )
 }
 
 /// `a·b + c`, fused when `FMA` (callers compiled with the `fma` target feature).
