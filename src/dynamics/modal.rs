@@ -448,24 +448,20 @@ impl ModalKernel {
     /// The direct sums of [`ModalKernel::forces_to_rows`] over the `loaded` sectors, whose
     /// loads are in `fload`; the twiddle index k·s mod N advances by s per harmonic.
     fn direct_force_rows(&mut self) {
-        let (nbp, ns) = (self.nbp, self.ns);
+        let nbp = self.nbp;
         self.phase.clear();
         self.phase.resize(self.loaded.len(), 0);
+        let mut weights = [(0.0, 0.0); DIRECT_DFT_SECTORS];
+        let weights = &mut weights[..self.loaded.len()];
         for (x, b) in self.fspec.chunks_exact_mut(2 * nbp).zip(&self.blocks) {
+            sector_weights(b, &self.twiddle, &mut self.phase, &self.loaded, weights);
             let (xa, xb) = x.split_at_mut(nbp);
             xa.iter_mut().for_each(|v| *v = 0.0);
             xb.iter_mut().for_each(|v| *v = 0.0);
-            let sectors = self.phase.iter_mut().zip(&self.loaded);
-            for ((m, &s), fl) in sectors.zip(self.fload.chunks_exact(nbp)) {
-                let (c, sn) = self.twiddle[*m];
-                let (c, sn) = (b.w * c, if b.real { 0.0 } else { b.w * sn });
+            for (&(c, sn), fl) in weights.iter().zip(self.fload.chunks_exact(nbp)) {
                 for ((a, bb), f) in xa.iter_mut().zip(xb.iter_mut()).zip(fl) {
                     *a = c.mul_add(*f, *a);
                     *bb = sn.mul_add(*f, *bb);
-                }
-                *m += s;
-                if *m >= ns {
-                    *m -= ns;
                 }
             }
         }
@@ -477,21 +473,13 @@ impl ModalKernel {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     fn direct_force_rows_avx2(&mut self) {
-        let (nbp, ns) = (self.nbp, self.ns);
+        let nbp = self.nbp;
         self.phase.clear();
         self.phase.resize(self.loaded.len(), 0);
         let mut weights = [(0.0, 0.0); DIRECT_DFT_SECTORS];
         let weights = &mut weights[..self.loaded.len()];
         for (x, b) in self.fspec.chunks_exact_mut(2 * nbp).zip(&self.blocks) {
-            let sectors = self.phase.iter_mut().zip(&self.loaded);
-            for (cs, (m, &s)) in weights.iter_mut().zip(sectors) {
-                let (c, sn) = self.twiddle[*m];
-                *cs = (b.w * c, if b.real { 0.0 } else { b.w * sn });
-                *m += s;
-                if *m >= ns {
-                    *m -= ns;
-                }
-            }
+            sector_weights(b, &self.twiddle, &mut self.phase, &self.loaded, weights);
             let (xa, xb) = x.split_at_mut(nbp);
             let mut r = 0;
             while r < nbp {
@@ -789,6 +777,28 @@ unsafe fn expand_band<const W: usize>(
         for i in 0..W {
             _mm256_storeu_pd(x.as_mut_ptr().add(r0 + 4 * i), xa[i]);
             _mm256_storeu_pd(x.as_mut_ptr().add(h + r0 + 4 * i), xb[i]);
+        }
+    }
+}
+
+/// DFT weights `(w cos kθ_s, w sin kθ_s)` of harmonic block `b` (sine 0 for a real one)
+/// at the `loaded` sectors s, from their twiddle indices k·s mod N in `phase`, which then
+/// advance to harmonic k + 1 (`twiddle` has N entries).
+#[inline(always)]
+fn sector_weights(
+    b: &Block,
+    twiddle: &[(f64, f64)],
+    phase: &mut [usize],
+    loaded: &[usize],
+    weights: &mut [(f64, f64)],
+) {
+    let ns = twiddle.len();
+    for (cs, (m, &s)) in weights.iter_mut().zip(phase.iter_mut().zip(loaded)) {
+        let (c, sn) = twiddle[*m];
+        *cs = (b.w * c, if b.real { 0.0 } else { b.w * sn });
+        *m += s;
+        if *m >= ns {
+            *m -= ns;
         }
     }
 }
