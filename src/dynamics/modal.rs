@@ -130,6 +130,8 @@ pub struct ModalKernel {
     fload: Vec<f64>,
     phase: Vec<usize>,
     cbuf: Vec<Complex64>,
+    /// The `c2r` spectra of every boundary channel (`nb` × N/2+1, channel-major; work buffer).
+    spectra: Vec<Complex64>,
     scratch: Vec<Complex64>,
     xb: Vec<f64>,
     tmp_eta: Vec<f64>,
@@ -246,6 +248,7 @@ impl ModalKernel {
             fload: vec![0.0; DIRECT_DFT_SECTORS * nbp],
             phase: Vec::with_capacity(DIRECT_DFT_SECTORS),
             cbuf: vec![Complex64::new(0.0, 0.0); nspec],
+            spectra: vec![Complex64::new(0.0, 0.0); nb * nspec],
             scratch: vec![Complex64::new(0.0, 0.0); scratch_len],
             xb: vec![0.0; 2 * nbp],
             nbp,
@@ -337,24 +340,32 @@ impl ModalKernel {
         } else {
             (&self.spec, out)
         };
-        for r in 0..nb {
-            for ((c, b), x) in self
-                .cbuf
-                .iter_mut()
-                .zip(&self.blocks)
-                .zip(rows.chunks_exact(2 * nbp))
-            {
-                *c = if b.real {
-                    Complex64::new(b.w * x[r], 0.0)
-                } else {
-                    Complex64::new(0.5 * b.w * x[r], -0.5 * b.w * x[nbp + r])
-                };
+        // All channels' spectra first, harmonic by harmonic: contiguous reads of the rows.
+        let nspec = self.cbuf.len();
+        for (k, (b, x)) in self
+            .blocks
+            .iter()
+            .zip(rows.chunks_exact(2 * nbp))
+            .enumerate()
+        {
+            let spectra = self.spectra.iter_mut().skip(k).step_by(nspec);
+            if b.real {
+                for (c, a) in spectra.zip(&x[..nb]) {
+                    *c = Complex64::new(b.w * a, 0.0);
+                }
+            } else {
+                let (wa, wb) = (0.5 * b.w, -0.5 * b.w);
+                for (c, (a, bb)) in spectra.zip(x[..nb].iter().zip(&x[nbp..nbp + nb])) {
+                    *c = Complex64::new(wa * a, wb * bb);
+                }
             }
+        }
+        for (r, spectrum) in self.spectra.chunks_exact_mut(nspec).enumerate() {
             self.c2r
-                .process_with_scratch(&mut self.cbuf, &mut self.tbuf, &mut self.scratch)
+                .process_with_scratch(spectrum, &mut self.tbuf, &mut self.scratch)
                 .expect("FFT buffer sizes are fixed at construction");
-            for (s, t) in self.tbuf.iter().enumerate() {
-                target[s * nb + r] = *t;
+            for (u, t) in target.chunks_exact_mut(nb).zip(&self.tbuf) {
+                u[r] = *t;
             }
         }
     }
@@ -533,33 +544,35 @@ impl ModalKernel {
             let range = b.offset..b.offset + b.dim;
             let deta = &mut self.deta[..b.dim];
             project(b, b.step_basis(), &self.fspec[chunk.clone()], yb, deta);
-            for (d, c) in deta.iter_mut().zip(&self.c3[range.clone()]) {
-                *d *= c;
-            }
+            scale(deta, &self.c3[range.clone()]);
             match target {
                 ForceTarget::Response => {
                     expand(b, b.step_basis(), deta, &mut self.spec[chunk.clone()], yb);
                 }
                 ForceTarget::State { channels } => {
-                    for (e, d) in self.eta_next[range.clone()].iter_mut().zip(deta.iter()) {
-                        *e += d;
-                    }
+                    add_to(&mut self.eta_next[range.clone()], deta);
                     if channels {
                         expand(b, b.step_basis(), deta, xb, yb);
-                        for (u, d) in self.spec_state[chunk.clone()].iter_mut().zip(xb.iter()) {
-                            *u += d;
-                        }
+                        add_to(&mut self.spec_state[chunk.clone()], xb);
                     }
                 }
             }
             if let Some(a) = next {
-                for i in range.clone() {
-                    self.eta_pred[i] = self.c1[i] * self.eta_next[i]
-                        + self.c2[i] * self.eta[i]
-                        + self.c3[i] * a * self.gload[i];
-                }
+                let r = range;
+                let pred = &mut self.eta_pred[r.clone()];
+                let coefs = [
+                    &self.c1[r.clone()],
+                    &self.c2[r.clone()],
+                    &self.c3[r.clone()],
+                ];
+                let state = [
+                    &self.eta_next[r.clone()],
+                    &self.eta[r.clone()],
+                    &self.gload[r],
+                ];
+                predictor(pred, coefs, state, a);
                 let x = &mut self.spec_pred[chunk];
-                expand(b, b.step_basis(), &self.eta_pred[range], x, yb);
+                expand(b, b.step_basis(), pred, x, yb);
             }
         }
         self.pred_amplitude = next;
@@ -662,6 +675,39 @@ impl ModalKernel {
             let eta = self.modes_full[bi].transpose() * (&self.masses[bi] * x);
             out[b.offset..b.offset + b.dim].copy_from_slice(eta.as_slice());
         }
+    }
+}
+
+/// `x *= c`, elementwise. Slice parameters carry no-alias information, so that such short
+/// per-mode loops vectorise (the same loops over fields of `self` do not).
+#[inline(always)]
+fn scale(x: &mut [f64], c: &[f64]) {
+    x.iter_mut().zip(c).for_each(|(x, c)| *x *= c);
+}
+
+/// `x += d`, elementwise (see [`scale`]).
+#[inline(always)]
+fn add_to(x: &mut [f64], d: &[f64]) {
+    x.iter_mut().zip(d).for_each(|(x, d)| *x += d);
+}
+
+/// Central-difference predictor per mode: `η_{n+1} = c₁ η_n + c₂ η_{n−1} + c₃ a g` with
+/// `[c₁, c₂, c₃]` and `[η_n, η_{n−1}, g]` (`g`: the modal load pattern, `a` its amplitude).
+/// Without load (`a = 0`, as after the release) the load term, a zero, is not read: two
+/// streams of six less over every mode.
+#[inline(always)]
+fn predictor(out: &mut [f64], [c1, c2, c3]: [&[f64]; 3], [e1, e0, g]: [&[f64]; 3], a: f64) {
+    let n = out.len();
+    let (c1, c2, e1, e0) = (&c1[..n], &c2[..n], &e1[..n], &e0[..n]);
+    if a == 0.0 {
+        for i in 0..n {
+            out[i] = c1[i] * e1[i] + c2[i] * e0[i];
+        }
+        return;
+    }
+    let (c3, g) = (&c3[..n], &g[..n]);
+    for i in 0..n {
+        out[i] = c1[i] * e1[i] + c2[i] * e0[i] + c3[i] * a * g[i];
     }
 }
 
@@ -1129,11 +1175,12 @@ impl StructureKernel for ModalKernel {
             self.rows_to_boundary(true, &mut []);
             return;
         }
-        for i in 0..self.eta.len() {
-            self.eta_next[i] = self.c1[i] * self.eta[i]
-                + self.c2[i] * self.eta_prev[i]
-                + self.c3[i] * amplitude * self.gload[i];
-        }
+        predictor(
+            &mut self.eta_next,
+            [&self.c1, &self.c2, &self.c3],
+            [&self.eta, &self.eta_prev, &self.gload],
+            amplitude,
+        );
         self.boundary_of(Which::Next, true, &mut []);
     }
     fn boundary(&self) -> &[f64] {
