@@ -320,6 +320,8 @@ pub struct GapBounds {
     calls: u64,
     last_call: Vec<u64>,
     trend: Vec<Option<(f64, f64)>>,
+    /// The nodes beyond the margin in a call, with their bounds (work buffer).
+    far: Vec<(f64, usize)>,
 }
 
 impl GapBounds {
@@ -335,6 +337,7 @@ impl GapBounds {
             calls: 1,
             last_call: vec![0; n_nodes],
             trend: vec![None; n_nodes],
+            far: Vec::with_capacity(n_nodes),
         }
     }
 
@@ -353,9 +356,11 @@ impl GapBounds {
         })
     }
 
-    /// [`project_nodes`] restricted to the nodes whose gap bound is not above `margin` (m),
-    /// or all nodes with `all`. The others keep their last `out` and warm start (their gap
-    /// there is stale, but provably above `margin`). Returns the number of nodes projected.
+    /// [`project_nodes`] restricted to the nodes whose gap bound is not above `margin` (m).
+    /// With `exact_min`, then also every node whose bound is below the smallest gap found so
+    /// far, nearest first: the smallest gap of `out` is then the smallest gap of all nodes. The
+    /// others keep their last `out` and warm start (their gap there is stale, but provably
+    /// above `margin` and not below that minimum). Returns the number of nodes projected.
     #[allow(clippy::too_many_arguments)]
     pub fn project_near(
         &mut self,
@@ -366,7 +371,7 @@ impl GapBounds {
         eps_nr: f64,
         out: &mut [Projection],
         margin: f64,
-        all: bool,
+        exact_min: bool,
     ) -> Result<usize, NodeProjectionError> {
         check_lengths(xs.len(), warm.len(), out.len())?;
         check_lengths(xs.len(), self.gap.len(), out.len())?;
@@ -387,33 +392,66 @@ impl GapBounds {
             self.u_per_radian = if ccw { n } else { -n };
         }
         self.calls += 1;
-        let n = spline.n_sectors() as f64;
         let mut projected = 0;
+        let mut min_gap = f64::INFINITY;
+        self.far.clear();
         for (node, x) in xs.iter().enumerate() {
-            if !all && self.lower_bound(node, x) > margin {
+            let bound = self.lower_bound(node, x);
+            if bound > margin {
+                self.far.push((bound, node));
                 continue;
             }
-            let start = warm[node].map(|p| (p.i as f64 + p.u, p.j as f64 + p.v));
-            let consecutive = self.last_call[node] + 1 == self.calls;
-            if let Some((gu, gv)) = start {
-                let (du, dv) = self.step_guess(node, x, consecutive);
-                warm[node] = Some(to_param(spline, (gu + du).rem_euclid(n), gv + dv));
-            }
-            project_node(spline, q, node, x, &mut warm[node], eps_nr, &mut out[node])?;
-            let p = out[node].param;
-            self.trend[node] = start.filter(|_| consecutive).map(|(gu, gv)| {
-                // The shorter way round the closed direction.
-                let du = (p.i as f64 + p.u - gu).rem_euclid(n);
-                let du = if du > 0.5 * n { du - n } else { du };
-                (du, p.j as f64 + p.v - gv)
-            });
-            self.last_call[node] = self.calls;
-            self.gap[node] = out[node].gap;
-            self.x[node] = *x;
-            self.drift_then[node] = self.drift;
+            self.project_one(spline, q, node, x, warm, eps_nr, out)?;
+            min_gap = min_gap.min(out[node].gap);
             projected += 1;
         }
+        if exact_min {
+            self.far.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+            for i in 0..self.far.len() {
+                let (bound, node) = self.far[i];
+                if bound >= min_gap {
+                    break;
+                }
+                self.project_one(spline, q, node, &xs[node], warm, eps_nr, out)?;
+                min_gap = min_gap.min(out[node].gap);
+                projected += 1;
+            }
+        }
         Ok(projected)
+    }
+
+    /// Projects node `node` at `x` from its extrapolated warm start and records its bound.
+    #[allow(clippy::too_many_arguments)]
+    fn project_one(
+        &mut self,
+        spline: &CasingSpline,
+        q: &[Vector3<f64>],
+        node: usize,
+        x: &Vector3<f64>,
+        warm: &mut [Option<SurfaceParam>],
+        eps_nr: f64,
+        out: &mut [Projection],
+    ) -> Result<(), NodeProjectionError> {
+        let n = spline.n_sectors() as f64;
+        let start = warm[node].map(|p| (p.i as f64 + p.u, p.j as f64 + p.v));
+        let consecutive = self.last_call[node] + 1 == self.calls;
+        if let Some((gu, gv)) = start {
+            let (du, dv) = self.step_guess(node, x, consecutive);
+            warm[node] = Some(to_param(spline, (gu + du).rem_euclid(n), gv + dv));
+        }
+        project_node(spline, q, node, x, &mut warm[node], eps_nr, &mut out[node])?;
+        let p = out[node].param;
+        self.trend[node] = start.filter(|_| consecutive).map(|(gu, gv)| {
+            // The shorter way round the closed direction.
+            let du = (p.i as f64 + p.u - gu).rem_euclid(n);
+            let du = if du > 0.5 * n { du - n } else { du };
+            (du, p.j as f64 + p.v - gv)
+        });
+        self.last_call[node] = self.calls;
+        self.gap[node] = out[node].gap;
+        self.x[node] = *x;
+        self.drift_then[node] = self.drift;
+        Ok(())
     }
 }
 
@@ -671,6 +709,10 @@ mod tests {
         );
         let margin = 1e-3;
         let (mut skipped, mut in_margin) = (0, 0);
+        // A second set of bounds asked for the smallest gap alone (no margin).
+        let mut min_bounds = GapBounds::new(8);
+        let (mut warm_min, mut min_only) = (vec![None; 8], vec![Projection::default(); 8]);
+        let mut min_projected = 0;
         for step in 0..400 {
             // First the nodes alone move (also radially), then the casing too.
             let t = step as f64 * 1e-3;
@@ -706,6 +748,25 @@ mod tests {
             // After the call the bound includes this step's surface motion.
             let bound: Vec<f64> = (0..8).map(|k| bounds.lower_bound(k, &xs[k])).collect();
             skipped += 8 - done;
+            min_projected += min_bounds
+                .project_near(
+                    &c.sp,
+                    &c.q,
+                    &xs,
+                    &mut warm_min,
+                    DEFAULT_EPS_NR,
+                    &mut min_only,
+                    f64::NEG_INFINITY,
+                    true,
+                )
+                .unwrap();
+            let smallest = |p: &[Projection]| p.iter().map(|p| p.gap).fold(f64::INFINITY, f64::min);
+            assert!(
+                (smallest(&min_only) - smallest(&full)).abs() < 1e-9,
+                "step {step}: smallest gap {} against {}",
+                smallest(&min_only),
+                smallest(&full)
+            );
             for k in 0..8 {
                 if step > 0 {
                     assert!(
@@ -722,10 +783,10 @@ mod tests {
                 }
             }
         }
-        // The test must exercise both branches.
+        // The test must exercise both branches, and the minimum alone must skip nodes.
         assert!(
-            skipped > 400 && in_margin > 100,
-            "skipped {skipped}, in margin {in_margin}"
+            skipped > 400 && in_margin > 100 && min_projected < 4 * 400,
+            "skipped {skipped}, in margin {in_margin}, projected for the minimum {min_projected}"
         );
     }
 

@@ -443,7 +443,8 @@ pub fn simulate(
         };
         let r_om = rot_z(case.omega * t1);
         fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-        // Every node on sample steps, so that the sampled minimum gap is exact.
+        // On sample steps also every node that may hold the smallest gap, so that the sampled
+        // minimum gap is exact.
         let sample_step = (step + 1) % num.decimation == 0;
         gap_bounds
             .project_near(
