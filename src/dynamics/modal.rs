@@ -678,8 +678,7 @@ impl ModalKernel {
     }
 }
 
-/// `x *= c`, elementwise. Slice parameters carry no-alias information, so that such short
-/// per-mode loops vectorise (the same loops over fields of `self` do not).
+/// `x *= c`, elementwise (a per-mode loop of the kernel, on slices of one length).
 #[inline(always)]
 fn scale(x: &mut [f64], c: &[f64]) {
     x.iter_mut().zip(c).for_each(|(x, c)| *x *= c);
