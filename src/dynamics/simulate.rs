@@ -622,7 +622,8 @@ pub fn simulate(
                     force_t[cd.blade] += mu * l;
                 }
             }
-            ki.correct(&fi);
+            // The impeller carries no load pattern: its next predictor has amplitude 0.
+            ki.correct_then_predict(&fi, 0.0);
             if let Some(k) = kc.as_mut() {
                 fc.iter_mut().for_each(|x| *x = 0.0);
                 for (cd, l) in cands.iter().zip(&lam) {
