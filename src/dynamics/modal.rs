@@ -30,9 +30,8 @@
 //! - **Harmonic-major rows.** The spectra are kept as the per-ND real rows `[a; b]` that the
 //!   products read and write in place; the sector DFTs do the complex packing.
 //! - The per-ND products of a complex harmonic take both halves of a J-pair in one pass over
-//!   the stored half basis (`expand_pair_avx2`, `project_pair_avx2`: explicit AVX2/FMA code
-//!   when the CPU has it); otherwise, and for the real harmonics, small GEMVs ([`gemv`],
-//!   [`gemv_t`]).
+//!   the stored half basis (`expand_avx2`, `project_avx2`: explicit AVX2/FMA code when the
+//!   CPU has it, for the real harmonics too); otherwise small GEMVs ([`gemv`], [`gemv_t`]).
 use crate::contact::CasingSpline;
 use crate::dynamics::kernel::{Energies, StructureKernel};
 use crate::dynamics::structure::{NdBlock, Structure, StructureError};
@@ -41,17 +40,17 @@ use realfft::num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::sync::Arc;
 
-/// `f::<W>(args)` with the compile-time width `W = min(left, 4)` (`left ≥ 1`): the explicit
-/// SIMD kernels take bands of up to four vectors or columns, with their accumulators in
-/// registers.
+/// `f::<W>(args)`, or `f::<W, G…>(args)` for `f::<G…>(args)`, with the compile-time width
+/// `W = min(left, 4)` (`left ≥ 1`): the explicit SIMD kernels take bands of up to four
+/// vectors or columns, with their accumulators in registers.
 #[cfg(target_arch = "x86_64")]
 macro_rules! by_width {
-    ($left:expr, $f:ident($($arg:expr),*)) => {
+    ($left:expr, $f:ident $(::<$($g:tt),*>)? ($($arg:expr),*)) => {
         match $left {
-            1 => $f::<1>($($arg),*),
-            2 => $f::<2>($($arg),*),
-            3 => $f::<3>($($arg),*),
-            _ => $f::<4>($($arg),*),
+            1 => $f::<1 $($(, $g)*)?>($($arg),*),
+            2 => $f::<2 $($(, $g)*)?>($($arg),*),
+            3 => $f::<3 $($(, $g)*)?>($($arg),*),
+            _ => $f::<4 $($(, $g)*)?>($($arg),*),
         }
     };
 }
@@ -731,9 +730,15 @@ fn predictor(out: &mut [f64], [c1, c2, c3]: [&[f64]; 3], [e1, e0, g]: [&[f64]; 3
 fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if !b.real && has_avx2_fma() {
+        if has_avx2_fma() {
             // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { expand_pair_avx2(basis, b.rows / 2, &eta[..2 * b.n], x) };
+            unsafe {
+                if b.real {
+                    expand_avx2::<false>(basis, b.rows, &eta[..b.n], x);
+                } else {
+                    expand_avx2::<true>(basis, b.rows / 2, &eta[..2 * b.n], x);
+                }
+            }
             return;
         }
     }
@@ -759,9 +764,15 @@ fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
 fn project(b: &Block, basis: &[f64], x: &[f64], y: &mut [f64], g: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if !b.real && has_avx2_fma() {
+        if has_avx2_fma() {
             // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { project_pair_avx2(basis, b.rows / 2, x, &mut g[..2 * b.n]) };
+            unsafe {
+                if b.real {
+                    project_avx2::<false>(basis, b.rows, x, &mut g[..b.n]);
+                } else {
+                    project_avx2::<true>(basis, b.rows / 2, x, &mut g[..2 * b.n]);
+                }
+            }
             return;
         }
     }
@@ -783,31 +794,37 @@ fn has_avx2_fma() -> bool {
     std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
 }
 
-/// [`expand`] of a complex harmonic in one pass over its half basis `V = [V_a; V_b]`
-/// (`2h` rows, `h` a multiple of 4, `η.len()/2` columns): `x_a = V_a η₁ − V_b η₂`,
-/// `x_b = V_b η₁ + V_a η₂`, in bands of up to 16 rows per half (eight accumulators), so each
-/// basis entry is loaded once for two products.
+/// [`expand`] in explicit AVX2/FMA code, with the half height `h` (a multiple of 4).
+/// `PAIRED` (a complex harmonic): one pass over its half basis `V = [V_a; V_b]` (`2h` rows,
+/// `η.len()/2` columns), `x_a = V_a η₁ − V_b η₂`, `x_b = V_b η₁ + V_a η₂`, so each basis entry
+/// is loaded once for two products. Otherwise (a real harmonic) `x = V η` with `h` rows.
+/// In bands of up to 16 rows per half, their sums in registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn expand_pair_avx2(basis: &[f64], h: usize, eta: &[f64], x: &mut [f64]) {
-    let n = eta.len() / 2;
-    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h.is_multiple_of(4));
+fn expand_avx2<const PAIRED: bool>(basis: &[f64], h: usize, eta: &[f64], x: &mut [f64]) {
+    let (parts, n) = if PAIRED {
+        (2, eta.len() / 2)
+    } else {
+        (1, eta.len())
+    };
+    assert!(basis.len() >= parts * h * n && x.len() >= parts * h && h.is_multiple_of(4));
     let (e1, e2) = eta.split_at(n);
     let mut r = 0;
     while r < h {
-        // SAFETY: rows r..r + 4W of both halves lie inside every column and `x` (checked above).
-        unsafe { by_width!((h - r) / 4, expand_band(basis, h, e1, e2, x, r)) }
+        // SAFETY: rows r..r + 4W of each part lie inside every column and `x` (checked above).
+        unsafe { by_width!((h - r) / 4, expand_band::<PAIRED>(basis, h, e1, e2, x, r)) }
         r += 16.min(h - r);
     }
 }
 
-/// Rows `r0..r0 + 4W` of both halves of [`expand_pair_avx2`].
+/// Rows `r0..r0 + 4W` of each part of [`expand_avx2`] (`e2` is read only if `PAIRED`).
 ///
 /// # Safety
-/// The CPU has AVX2 and FMA; `r0 + 4W ≤ h`, `basis.len() ≥ 2h·e1.len()`, `x.len() ≥ 2h`.
+/// The CPU has AVX2 and FMA; `r0 + 4W ≤ h`, `basis.len() ≥ parts·h·e1.len()`,
+/// `x.len() ≥ parts·h` (`parts` = 2 if `PAIRED`, else 1), `e2.len() ≥ e1.len()` if `PAIRED`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn expand_band<const W: usize>(
+unsafe fn expand_band<const W: usize, const PAIRED: bool>(
     basis: &[f64],
     h: usize,
     e1: &[f64],
@@ -821,11 +838,19 @@ unsafe fn expand_band<const W: usize>(
     };
     // SAFETY: the caller guarantees the bounds.
     unsafe {
+        let stride = if PAIRED { 2 * h } else { h };
         let mut xa = [_mm256_setzero_pd(); W];
         let mut xb = [_mm256_setzero_pd(); W];
-        for (p, (&a1, &a2)) in e1.iter().zip(e2).enumerate() {
-            let (s1, s2) = (_mm256_set1_pd(a1), _mm256_set1_pd(a2));
-            let col = basis.as_ptr().add(2 * h * p + r0);
+        for (p, &a1) in e1.iter().enumerate() {
+            let s1 = _mm256_set1_pd(a1);
+            let col = basis.as_ptr().add(stride * p + r0);
+            if !PAIRED {
+                for (i, xa) in xa.iter_mut().enumerate() {
+                    *xa = _mm256_fmadd_pd(_mm256_loadu_pd(col.add(4 * i)), s1, *xa);
+                }
+                continue;
+            }
+            let s2 = _mm256_set1_pd(*e2.get_unchecked(p));
             for i in 0..W {
                 let va = _mm256_loadu_pd(col.add(4 * i));
                 let vb = _mm256_loadu_pd(col.add(h + 4 * i));
@@ -835,7 +860,9 @@ unsafe fn expand_band<const W: usize>(
         }
         for i in 0..W {
             _mm256_storeu_pd(x.as_mut_ptr().add(r0 + 4 * i), xa[i]);
-            _mm256_storeu_pd(x.as_mut_ptr().add(h + r0 + 4 * i), xb[i]);
+            if PAIRED {
+                _mm256_storeu_pd(x.as_mut_ptr().add(h + r0 + 4 * i), xb[i]);
+            }
         }
     }
 }
@@ -1009,32 +1036,39 @@ unsafe fn store_folded(
     }
 }
 
-/// [`project`] of a complex harmonic in one pass over its half basis (see
-/// [`expand_pair_avx2`]): `g₁ = V_aᵀ x_a + V_bᵀ x_b`, `g₂ = V_aᵀ x_b − V_bᵀ x_a`, four
-/// columns at a time with their eight sums reduced together.
+/// [`project`] in explicit AVX2/FMA code, with the half height `h` (a multiple of 4).
+/// `PAIRED` (a complex harmonic): one pass over its half basis (see [`expand_avx2`]),
+/// `g₁ = V_aᵀ x_a + V_bᵀ x_b`, `g₂ = V_aᵀ x_b − V_bᵀ x_a`. Otherwise (a real harmonic)
+/// `g = Vᵀ x` with `h` rows. Four columns at a time, their sums reduced together.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn project_pair_avx2(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
-    let n = g.len() / 2;
-    assert!(basis.len() >= 2 * h * n && x.len() >= 2 * h && h.is_multiple_of(4));
+fn project_avx2<const PAIRED: bool>(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
+    let (parts, n) = if PAIRED {
+        (2, g.len() / 2)
+    } else {
+        (1, g.len())
+    };
+    assert!(basis.len() >= parts * h * n && x.len() >= parts * h && h.is_multiple_of(4));
     let (g1, g2) = g.split_at_mut(n);
     let mut p = 0;
     while p < n {
         // SAFETY: columns p..p + W lie inside `basis`, rows inside `x` (checked above).
-        unsafe { by_width!(n - p, project_columns(basis, h, x, g1, g2, p)) }
+        unsafe { by_width!(n - p, project_columns::<PAIRED>(basis, h, x, g1, g2, p)) }
         p += 4.min(n - p);
     }
 }
 
-/// Columns `p0..p0 + W` of [`project_pair_avx2`]. `W` is a constant so that the 2W
-/// accumulators stay in registers and the sums are stored by fixed-length copies.
+/// Columns `p0..p0 + W` of [`project_avx2`] (`g2` is written only if `PAIRED`). `W` is a
+/// constant so that the accumulators stay in registers and the sums are stored by
+/// fixed-length copies.
 ///
 /// # Safety
-/// The CPU has AVX2 and FMA; `p0 + W ≤ g1.len() = g2.len()`, `basis.len() ≥ 2h(p0 + W)`,
-/// `x.len() ≥ 2h`, `h` a multiple of 4.
+/// The CPU has AVX2 and FMA; `p0 + W ≤ g1.len()`, `basis.len() ≥ parts·h(p0 + W)`,
+/// `x.len() ≥ parts·h` (`parts` = 2 if `PAIRED`, else 1), `h` a multiple of 4,
+/// `g2.len() = g1.len()` if `PAIRED`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn project_columns<const W: usize>(
+unsafe fn project_columns<const W: usize, const PAIRED: bool>(
     basis: &[f64],
     h: usize,
     x: &[f64],
@@ -1054,25 +1088,35 @@ unsafe fn project_columns<const W: usize>(
             _mm256_permute2f128_pd::<0x31>(ab, cd),
         )
     };
+    let stride = if PAIRED { 2 * h } else { h };
     // SAFETY: the caller guarantees the bounds.
     unsafe {
         let mut a1 = [_mm256_setzero_pd(); 4];
         let mut a2 = [_mm256_setzero_pd(); 4];
         for r in (0..h).step_by(4) {
             let xa = _mm256_loadu_pd(x.as_ptr().add(r));
+            if !PAIRED {
+                for (j, a1) in a1.iter_mut().enumerate().take(W) {
+                    let col = basis.as_ptr().add(stride * (p0 + j) + r);
+                    *a1 = _mm256_fmadd_pd(_mm256_loadu_pd(col), xa, *a1);
+                }
+                continue;
+            }
             let xb = _mm256_loadu_pd(x.as_ptr().add(h + r));
             for j in 0..W {
-                let col = basis.as_ptr().add(2 * h * (p0 + j) + r);
+                let col = basis.as_ptr().add(stride * (p0 + j) + r);
                 let (va, vb) = (_mm256_loadu_pd(col), _mm256_loadu_pd(col.add(h)));
                 a1[j] = _mm256_fmadd_pd(vb, xb, _mm256_fmadd_pd(va, xa, a1[j]));
                 a2[j] = _mm256_fnmadd_pd(vb, xa, _mm256_fmadd_pd(va, xb, a2[j]));
             }
         }
-        let (mut t1, mut t2) = ([0.0f64; 4], [0.0f64; 4]);
-        _mm256_storeu_pd(t1.as_mut_ptr(), reduce4(a1[0], a1[1], a1[2], a1[3]));
-        _mm256_storeu_pd(t2.as_mut_ptr(), reduce4(a2[0], a2[1], a2[2], a2[3]));
-        g1[p0..p0 + W].copy_from_slice(&t1[..W]);
-        g2[p0..p0 + W].copy_from_slice(&t2[..W]);
+        let mut t = [0.0f64; 4];
+        _mm256_storeu_pd(t.as_mut_ptr(), reduce4(a1[0], a1[1], a1[2], a1[3]));
+        g1[p0..p0 + W].copy_from_slice(&t[..W]);
+        if PAIRED {
+            _mm256_storeu_pd(t.as_mut_ptr(), reduce4(a2[0], a2[1], a2[2], a2[3]));
+            g2[p0..p0 + W].copy_from_slice(&t[..W]);
+        }
     }
 }
 
@@ -1326,134 +1370,9 @@ impl StructureKernel for ModalKernel {
 }
 
 /// `y += A x` for a column-major `A` with `rows` rows (`x.len()` columns): four columns at a
-/// time so that each pass over `y` does four FMAs per element. AVX2/FMA code when available
-/// (runtime check, `gemv_avx2`), SSE2 otherwise; they agree to round-off.
-#[inline]
+/// time so that each pass over `y` does four products per element. The portable path of
+/// [`expand`] (the AVX2 one is `expand_avx2`).
 pub fn gemv(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { gemv_avx2(a, rows, x, y) };
-            return;
-        }
-    }
-    gemv_impl(a, rows, x, y);
-}
-
-/// `y = Aᵀ x` for a column-major `A` with `rows` rows (`y.len()` columns): four columns at a
-/// time with four lane accumulators each. The AVX2 path fuses the multiply-adds, so it agrees
-/// with the portable one to round-off, not bitwise.
-#[inline]
-pub fn gemv_t(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe { gemv_t_avx2(a, rows, x, y) };
-            return;
-        }
-    }
-    gemv_t_impl(a, rows, x, y);
-}
-
-/// [`gemv`] with explicit AVX2/FMA: a band of `4K` rows of `y` stays in `K` registers while
-/// all columns stream through (independent FMA chains, one load per four products).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn gemv_avx2(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    let cols = x.len();
-    assert!(a.len() >= rows * cols && y.len() >= rows);
-    let mut r = 0;
-    while r + 32 <= rows {
-        // SAFETY: rows r..r+32 of every column lie inside `a` and `y` (checked above).
-        unsafe { gemv_band::<8>(a, rows, x, y, r) };
-        r += 32;
-    }
-    while r + 4 <= rows {
-        // SAFETY: as above, rows r..r+4.
-        unsafe { gemv_band::<1>(a, rows, x, y, r) };
-        r += 4;
-    }
-    for rr in r..rows {
-        y[rr] += (0..cols).map(|p| a[p * rows + rr] * x[p]).sum::<f64>();
-    }
-}
-
-/// Rows `r0..r0 + 4K` of `y += A x` (see [`gemv_avx2`]).
-///
-/// # Safety
-/// The CPU has AVX2 and FMA; `r0 + 4K ≤ rows`, `a.len() ≥ rows·x.len()`, `y.len() ≥ rows`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn gemv_band<const K: usize>(a: &[f64], rows: usize, x: &[f64], y: &mut [f64], r0: usize) {
-    use std::arch::x86_64::{_mm256_fmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_storeu_pd};
-    // SAFETY: the caller guarantees the bounds.
-    unsafe {
-        let mut acc = [_mm256_loadu_pd(y.as_ptr().add(r0)); K];
-        for (i, v) in acc.iter_mut().enumerate() {
-            *v = _mm256_loadu_pd(y.as_ptr().add(r0 + 4 * i));
-        }
-        for (p, &xp) in x.iter().enumerate() {
-            let xv = _mm256_set1_pd(xp);
-            let col = a.as_ptr().add(p * rows + r0);
-            for (i, v) in acc.iter_mut().enumerate() {
-                *v = _mm256_fmadd_pd(_mm256_loadu_pd(col.add(4 * i)), xv, *v);
-            }
-        }
-        for (i, v) in acc.iter().enumerate() {
-            _mm256_storeu_pd(y.as_mut_ptr().add(r0 + 4 * i), *v);
-        }
-    }
-}
-
-/// [`gemv_t`] with explicit AVX2/FMA: four columns at a time, one 4-row FMA accumulator per
-/// column (the compiler vectorises the portable loop across columns with gathers instead).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn gemv_t_avx2(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    use std::arch::x86_64::{
-        __m256d, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-    };
-    let cols = y.len();
-    assert!(a.len() >= rows * cols && x.len() >= rows);
-    let body = rows - rows % 4;
-    let hsum = |v: __m256d| {
-        let mut t = [0.0f64; 4];
-        // SAFETY: `t` holds four f64.
-        unsafe { _mm256_storeu_pd(t.as_mut_ptr(), v) };
-        (t[0] + t[1]) + (t[2] + t[3])
-    };
-    let mut p = 0;
-    while p < cols {
-        let width = (cols - p).min(4);
-        let mut acc = [_mm256_setzero_pd(); 4];
-        let mut r = 0;
-        while r < body {
-            // SAFETY: r + 4 ≤ rows and (p + j) < cols, so every load is inside `x` and `a`
-            // (length checked above).
-            unsafe {
-                let xv = _mm256_loadu_pd(x.as_ptr().add(r));
-                for (j, aj) in acc.iter_mut().enumerate().take(width) {
-                    let c = _mm256_loadu_pd(a.as_ptr().add((p + j) * rows + r));
-                    *aj = _mm256_fmadd_pd(c, xv, *aj);
-                }
-            }
-            r += 4;
-        }
-        for j in 0..width {
-            let col = &a[(p + j) * rows..(p + j + 1) * rows];
-            let tail: f64 = (body..rows).map(|r| col[r] * x[r]).sum();
-            y[p + j] = hsum(acc[j]) + tail;
-        }
-        p += width;
-    }
-}
-
-#[inline(always)]
-fn gemv_impl(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
     let y = &mut y[..rows];
     let cols = x.len();
     let a = &a[..rows * cols];
@@ -1499,8 +1418,10 @@ fn dot_lanes(c: &[f64], x: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-#[inline(always)]
-fn gemv_t_impl(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
+/// `y = Aᵀ x` for a column-major `A` with `rows` rows (`y.len()` columns): four columns at a
+/// time with four lane accumulators each. The portable path of [`project`] (the AVX2 one is
+/// `project_avx2`).
+pub fn gemv_t(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
     let x = &x[..rows];
     let cols = y.len();
     let a = &a[..rows * cols];
@@ -1548,8 +1469,9 @@ fn gemv_t_impl(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
 mod gemv_tests {
     use super::*;
 
-    /// The one-pass J-pair kernels equal the naive `[V, JV] η` and `[V, JV]ᵀ x`, for half
-    /// heights that fill whole 16-row bands and leave partial ones.
+    /// The one-pass J-pair kernels equal the naive `[V, JV] η` and `[V, JV]ᵀ x`, and the
+    /// real-harmonic ones `V η` and `Vᵀ x`, for heights that fill whole 16-row bands and
+    /// leave partial ones.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn paired_kernels_match_the_naive_products() {
@@ -1572,17 +1494,37 @@ mod gemv_tests {
             };
             let mut got = vec![0.0; 2 * h];
             // SAFETY: AVX2 and FMA checked above.
-            unsafe { expand_pair_avx2(&v, h, &eta, &mut got) };
+            unsafe { expand_avx2::<true>(&v, h, &eta, &mut got) };
             for (r, got_r) in got.iter().enumerate() {
                 let want: f64 = (0..2 * n).map(|p| col(p, r) * eta[p]).sum();
                 assert!((got_r - want).abs() < 1e-13, "expand h={h} n={n} row {r}");
             }
             let mut g = vec![0.0; 2 * n];
             // SAFETY: as above.
-            unsafe { project_pair_avx2(&v, h, &x, &mut g) };
+            unsafe { project_avx2::<true>(&v, h, &x, &mut g) };
             for (p, g_p) in g.iter().enumerate() {
                 let want: f64 = (0..2 * h).map(|r| col(p, r) * x[r]).sum();
                 assert!((g_p - want).abs() < 1e-13, "project h={h} n={n} column {p}");
+            }
+            // A real harmonic: the first h·n entries as n columns of h rows.
+            let real = |p: usize, r: usize| v[p * h + r];
+            // SAFETY: as above.
+            unsafe { expand_avx2::<false>(&v, h, &eta[..n], &mut got[..h]) };
+            for (r, got_r) in got[..h].iter().enumerate() {
+                let want: f64 = (0..n).map(|p| real(p, r) * eta[p]).sum();
+                assert!(
+                    (got_r - want).abs() < 1e-13,
+                    "real expand h={h} n={n} row {r}"
+                );
+            }
+            // SAFETY: as above.
+            unsafe { project_avx2::<false>(&v, h, &x[..h], &mut g[..n]) };
+            for (p, g_p) in g[..n].iter().enumerate() {
+                let want: f64 = (0..h).map(|r| real(p, r) * x[r]).sum();
+                assert!(
+                    (g_p - want).abs() < 1e-13,
+                    "real project h={h} n={n} column {p}"
+                );
             }
         }
     }
