@@ -115,6 +115,7 @@ pub struct ModalKernel {
     eta_pred: Vec<f64>,
     spec_pred: Vec<f64>,
     pred_amplitude: Option<f64>,
+    descending: bool,
     /// Harmonic rows `(a, b)` of the last force passed to correct/response (`a = w Re X_k`,
     /// `b = −w Im X_k` of its sector DFT `X_k`).
     fspec: Vec<f64>,
@@ -244,6 +245,7 @@ impl ModalKernel {
             eta_pred: vec![0.0; n],
             spec_pred: vec![0.0; 2 * nbp * nspec],
             pred_amplitude: None,
+            descending: false,
             deta: vec![0.0; st.blocks.iter().map(|b| b.dim).max().unwrap_or(0)],
             yb: vec![0.0; 2 * nbp],
             tbuf: vec![0.0; ns],
@@ -551,42 +553,36 @@ impl ModalKernel {
     #[inline(always)]
     fn apply_force_spectrum_impl(&mut self, target: ForceTarget, next: Option<f64>) {
         let stride = 2 * self.nbp;
-        for (k, b) in self.blocks.iter().enumerate() {
+        let nh = self.blocks.len();
+        self.descending = !self.descending;
+        for i in 0..nh {
+            let k = if self.descending { nh - 1 - i } else { i };
+            let b = &self.blocks[k];
             let chunk = k * stride..k * stride + b.rows;
             let xb = &mut self.xb[..b.rows];
             let yb = &mut self.yb[..b.rows];
-            let range = b.offset..b.offset + b.dim;
+            let r = b.offset..b.offset + b.dim;
             let deta = &mut self.deta[..b.dim];
             project(b, b.step_basis(), &self.fspec[chunk.clone()], yb, deta);
-            scale(deta, &self.c3[range.clone()]);
             match target {
                 ForceTarget::Response => {
-                    expand(b, b.step_basis(), deta, &mut self.spec[chunk.clone()], yb);
+                    scale(deta, &self.c3[r]);
+                    expand(b, b.step_basis(), deta, &mut self.spec[chunk], yb);
                 }
                 ForceTarget::State { channels } => {
-                    add_to(&mut self.eta_next[range.clone()], deta);
+                    let coefs = [&self.c1[r.clone()], &self.c2[r.clone()], &self.c3[r.clone()]];
+                    let pred = next.map(|a| (&mut self.eta_pred[r.clone()], a));
+                    let past = [&self.eta[r.clone()], &self.gload[r.clone()]];
+                    correct_modes(deta, &mut self.eta_next[r], coefs, past, pred);
                     if channels {
                         expand(b, b.step_basis(), deta, xb, yb);
                         add_to(&mut self.spec_state[chunk.clone()], xb);
                     }
+                    if next.is_some() {
+                        let pred = &self.eta_pred[b.offset..b.offset + b.dim];
+                        expand(b, b.step_basis(), pred, &mut self.spec_pred[chunk], yb);
+                    }
                 }
-            }
-            if let Some(a) = next {
-                let r = range;
-                let pred = &mut self.eta_pred[r.clone()];
-                let coefs = [
-                    &self.c1[r.clone()],
-                    &self.c2[r.clone()],
-                    &self.c3[r.clone()],
-                ];
-                let state = [
-                    &self.eta_next[r.clone()],
-                    &self.eta[r.clone()],
-                    &self.gload[r],
-                ];
-                predictor(pred, coefs, state, a);
-                let x = &mut self.spec_pred[chunk];
-                expand(b, b.step_basis(), pred, x, yb);
             }
         }
         self.pred_amplitude = next;
@@ -721,6 +717,53 @@ fn predictor(out: &mut [f64], [c1, c2, c3]: [&[f64]; 3], [e1, e0, g]: [&[f64]; 3
     let (c3, g) = (&c3[..n], &g[..n]);
     for i in 0..n {
         out[i] = c1[i] * e1[i] + c2[i] * e0[i] + c3[i] * a * g[i];
+    }
+}
+
+/// The correction of one block's modes by their projected forces `g` (`Φ_bᵀ F`), in one
+/// pass: `Δη = c₃ g` (into `g`), `η_{n+1} += Δη`, and with `next = (pred, a)` the predictor of
+/// the following step from the corrected state, `pred = c₁ η_{n+1} + c₂ η_n + c₃ a g_load`
+/// (the arithmetic of [`predictor`]), with `past = [η_n, g_load]`.
+#[inline(always)]
+fn correct_modes(
+    g: &mut [f64],
+    eta_next: &mut [f64],
+    [c1, c2, c3]: [&[f64]; 3],
+    [e0, gl]: [&[f64]; 2],
+    next: Option<(&mut [f64], f64)>,
+) {
+    let n = g.len();
+    let (eta_next, c1, c2, c3, e0, gl) = (
+        &mut eta_next[..n],
+        &c1[..n],
+        &c2[..n],
+        &c3[..n],
+        &e0[..n],
+        &gl[..n],
+    );
+    match next {
+        None => {
+            for i in 0..n {
+                g[i] *= c3[i];
+                eta_next[i] += g[i];
+            }
+        }
+        Some((pred, a)) if a == 0.0 => {
+            let pred = &mut pred[..n];
+            for i in 0..n {
+                g[i] *= c3[i];
+                eta_next[i] += g[i];
+                pred[i] = c1[i] * eta_next[i] + c2[i] * e0[i];
+            }
+        }
+        Some((pred, a)) => {
+            let pred = &mut pred[..n];
+            for i in 0..n {
+                g[i] *= c3[i];
+                eta_next[i] += g[i];
+                pred[i] = c1[i] * eta_next[i] + c2[i] * e0[i] + c3[i] * a * gl[i];
+            }
+        }
     }
 }
 
