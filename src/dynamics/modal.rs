@@ -570,7 +570,11 @@ impl ModalKernel {
                     expand(b, b.step_basis(), deta, &mut self.spec[chunk], yb);
                 }
                 ForceTarget::State { channels } => {
-                    let coefs = [&self.c1[r.clone()], &self.c2[r.clone()], &self.c3[r.clone()]];
+                    let coefs = [
+                        &self.c1[r.clone()],
+                        &self.c2[r.clone()],
+                        &self.c3[r.clone()],
+                    ];
                     let pred = next.map(|a| (&mut self.eta_pred[r.clone()], a));
                     let past = [&self.eta[r.clone()], &self.gload[r.clone()]];
                     correct_modes(deta, &mut self.eta_next[r], coefs, past, pred);
@@ -1032,7 +1036,7 @@ unsafe fn fold_band<const W: usize>(
 /// `E = E₊ + E₋`, `O = O₊ + O₋`, and with `half = Some(N/2)` (N even) first
 /// `u_{N/2−s} = E' − O'`, `u_{N/2+s} = E' + O'` with `E' = E₊ − E₋`, `O' = O₊ − O₋` (N odd:
 /// `E₋ = O₋ = 0`, not read). Where sectors coincide (s = 0, s = N/4) the last write wins.
-/// The rows past `nb` are masked off.
+/// The rows past `nb` are not written.
 ///
 /// # Safety
 /// The CPU has AVX2; `target.len() = N·nb`, `s ≤ N/2`, every sum holds `nb` rounded up to
@@ -1046,20 +1050,14 @@ unsafe fn store_folded(
     s: usize,
     half: Option<usize>,
 ) {
-    use std::arch::x86_64::{
-        _mm256_add_pd, _mm256_cmpgt_epi64, _mm256_loadu_pd, _mm256_maskstore_pd,
-        _mm256_set1_epi64x, _mm256_setr_epi64x, _mm256_sub_pd,
-    };
+    use std::arch::x86_64::{_mm256_add_pd, _mm256_loadu_pd, _mm256_sub_pd};
     let ns = target.len() / nb;
     let t = target.as_mut_ptr();
     // SAFETY: rows v..v + 4 of the sums exist (v < nb ≤ their length, a multiple of 4); each
-    // sector's rows start inside `target` and the lanes past its `nb` rows are masked off.
+    // sector's rows start inside `target` and only its `nb` rows are written.
     unsafe {
-        let lanes = _mm256_setr_epi64x(0, 1, 2, 3);
         for v in (0..nb).step_by(4) {
-            // Lane i is stored iff v + i < nb.
-            let mask = _mm256_cmpgt_epi64(_mm256_set1_epi64x((nb - v) as i64), lanes);
-            let store = |m: usize, x| _mm256_maskstore_pd(t.add(m * nb + v), mask, x);
+            let store = |m: usize, x| store_rows(t.add(m * nb + v), x, nb - v);
             let (mut e, mut o) = (
                 _mm256_loadu_pd(ep[v..].as_ptr()),
                 _mm256_loadu_pd(op[v..].as_ptr()),
@@ -1076,6 +1074,36 @@ unsafe fn store_folded(
             }
             store((ns - s) % ns, _mm256_sub_pd(e, o));
             store(s, _mm256_add_pd(e, o));
+        }
+    }
+}
+
+/// Stores the first `min(n, 4)` lanes of `x` at `p` by plain stores of 4, 2 and 1 values
+/// (AMD cores execute masked stores slowly).
+///
+/// # Safety
+/// The CPU has AVX2; `p` is valid for `min(n, 4)` writes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn store_rows(p: *mut f64, x: std::arch::x86_64::__m256d, n: usize) {
+    use std::arch::x86_64::{
+        _mm_store_sd, _mm_storeu_pd, _mm256_castpd256_pd128, _mm256_extractf128_pd,
+        _mm256_storeu_pd,
+    };
+    // SAFETY: the caller guarantees the bounds.
+    unsafe {
+        if n >= 4 {
+            _mm256_storeu_pd(p, x);
+            return;
+        }
+        let (low, high) = (_mm256_castpd256_pd128(x), _mm256_extractf128_pd::<1>(x));
+        match n {
+            3 => {
+                _mm_storeu_pd(p, low);
+                _mm_store_sd(p.add(2), high);
+            }
+            2 => _mm_storeu_pd(p, low),
+            _ => _mm_store_sd(p, low),
         }
     }
 }
@@ -1625,8 +1653,16 @@ mod gemv_tests {
         use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let mut rng = crate::dynamics::synthetic::Lcg(9);
-        for ns in [10, 40, 37, DIRECT_SYNTH_SECTORS + 4] {
-            let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, 3, 2));
+        // Contact nodes 3, 5, 2, 4: 9, 15, 6 and 12 rows per sector, so every partial last
+        // band of four rows is stored.
+        for (ns, nc) in [
+            (10, 3),
+            (40, 5),
+            (37, 2),
+            (DIRECT_SYNTH_SECTORS + 4, 4),
+            (12, 4),
+        ] {
+            let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, nc, 2));
             let st = Structure::new(&rom, 0.0).unwrap();
             let mut k = ModalKernel::new(&st, 0.3 * st.stability_limit()).unwrap();
             let (nb, nbp) = (k.nb, k.nbp);
