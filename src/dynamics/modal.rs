@@ -752,7 +752,7 @@ fn correct_modes(
                 eta_next[i] += g[i];
             }
         }
-        Some((pred, a)) if a == 0.0 => {
+        Some((pred, 0.0)) => {
             let pred = &mut pred[..n];
             for i in 0..n {
                 g[i] *= c3[i];
