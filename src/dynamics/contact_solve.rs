@@ -77,10 +77,11 @@ impl NodeFlexTable {
 pub struct ControlFlexTable {
     n: usize,
     m: usize,
-    /// `T` as column-major 3×3 arrays padded with 3 zeros to three AVX lanes of 4, index
-    /// `(d·S + r1)·S + r2` with `S = max(M, 4)` (rows `≥ M` are zero, so that the hot loop of
-    /// [`ControlFlexTable::pair_block`] always spans 4 × 4 rows).
-    flat: Vec<[f64; 12]>,
+    /// `T` entry by entry: entry `e = d1 + 3 d2` of the 3×3 block (column-major) at
+    /// `((d·9 + e)·S + r1)·S + r2` with `S = max(M, 4)` (rows `≥ M` are zero, so that the hot
+    /// loop of [`ControlFlexTable::pair_block`] always spans 4 × 4 rows): the four `r2` of a
+    /// patch are contiguous, one vector.
+    flat: Vec<f64>,
     /// cos, sin of cl·α per class.
     cs: Vec<(f64, f64)>,
 }
@@ -94,7 +95,7 @@ impl ControlFlexTable {
         let b = spline.b_matrix();
         let rots: Vec<Matrix3<f64>> = (0..n).map(|i| rot_z(i as f64 * alpha)).collect();
         let st = m.max(4);
-        let mut flat = vec![[0.0; 12]; n * st * st];
+        let mut flat = vec![0.0; n * 9 * st * st];
         let mut f = vec![0.0; n * nb];
         let mut out = vec![0.0; n * nb];
         let mut disp = vec![Vector3::zeros(); n * m];
@@ -132,7 +133,7 @@ impl ControlFlexTable {
                         let v = dq[spline.control_index(cl1 + 1, r1 + 1)];
                         for d1 in 0..3 {
                             // Column-major: entry (d1, d2) at d1 + 3 d2.
-                            flat[(cl1 * st + r1) * st + r2][d1 + 3 * d2] = v[d1];
+                            flat[((cl1 * 9 + d1 + 3 * d2) * st + r1) * st + r2] = v[d1];
                         }
                     }
                 }
@@ -161,8 +162,9 @@ impl ControlFlexTable {
     /// `S(pk)` per unit force at `S(pl)`, `V(k, l) = Σ_a Σ_b c^k_a c^l_b HQ(a, b)` over their 16
     /// control points and basis weights `c` (eq. 18). `V(l, k) = V(k, l)ᵀ` (Maxwell–Betti), so
     /// a contact matrix needs it once per unordered pair. The tensor-product weights are
-    /// contracted along the meridian first (7 distinct circumferential offsets): ~1.4k flops.
-    /// AVX2/FMA code when the CPU has it (runtime check; same arithmetic).
+    /// contracted along the meridian first, for the 7 distinct circumferential offsets, by
+    /// the products `w^k_a w^l_b` with the table's rows of four (~1.2k flops). AVX2/FMA code
+    /// when the CPU has it (runtime check; the same sums, fused).
     pub fn pair_block(
         &self,
         pk: &crate::contact::SurfaceParam,
@@ -177,7 +179,7 @@ impl ControlFlexTable {
                 return unsafe { self.pair_block_avx2(pk, pl) };
             }
         }
-        self.pair_block_impl::<false>(pk, pl)
+        self.pair_block_impl::<false>(pk, pl, meridian_sums)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -187,16 +189,22 @@ impl ControlFlexTable {
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
     ) -> Matrix3<f64> {
-        self.pair_block_impl::<true>(pk, pl)
+        // SAFETY: this function runs only on CPUs with AVX2 and FMA.
+        self.pair_block_impl::<true>(pk, pl, |t, rows, wkl| unsafe {
+            meridian_sums_avx2(t, rows, wkl)
+        })
     }
 
     /// With `FMA`, the products are fused multiply-adds (Rust never contracts `a * b + c`
     /// itself); without, they are plain products and sums (no slow software `fma`).
+    /// `sums(t, rows, w)`: the nine entries of `Σ_a Σ_b w[a][b] T[r1 = ra][r2 = rb]` of the
+    /// blocks `t` of one offset (see [`meridian_sums`]).
     #[inline(always)]
     fn pair_block_impl<const FMA: bool>(
         &self,
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
+        sums: impl Fn(&[f64], MeridianRows, &[[f64; 4]; 4]) -> [f64; 12],
     ) -> Matrix3<f64> {
         use crate::contact::spline::{cubic_basis, real_row_weights};
         let (n, m) = (self.n, self.m);
@@ -207,29 +215,21 @@ impl ControlFlexTable {
         let (vl, _, _) = cubic_basis(pl.v);
         let (sk, wk) = real_row_weights(pk.j, &vk, m);
         let (sl, wl) = real_row_weights(pl.j, &vl, m);
-        // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ (plain fixed-size arrays: this is
-        // the hot loop, and 12-wide blocks vectorise into three AVX lanes). One accumulator per
-        // meridian row `a` keeps the FMA chains independent.
-        let mut v = [[0.0f64; 12]; 7];
-        for (di, vd) in v.iter_mut().enumerate() {
+        // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ, the meridian rows contracted
+        // with the weights w^k_a w^l_b.
+        let wkl: [[f64; 4]; 4] = std::array::from_fn(|a| std::array::from_fn(|b| wk[a] * wl[b]));
+        let rows = MeridianRows {
+            stride: st,
+            first: sk * st + sl,
+        };
+        let v: [[f64; 12]; 7] = std::array::from_fn(|di| {
             let d = (pk.i + n * 4 + di - 3 - pl.i) % n;
-            let mut acc = [[0.0f64; 12]; 4];
-            for (a, acc_a) in acc.iter_mut().enumerate() {
-                let base = (d * st + sk + a) * st + sl;
-                // The blocks b = 0..4 are contiguous: one row of the table (weights beyond the
-                // real rows are zero).
-                for (tb, wb) in self.flat[base..base + 4].iter().zip(&wl) {
-                    for e in 0..12 {
-                        acc_a[e] = madd::<FMA>(*wb, tb[e], acc_a[e]);
-                    }
-                }
-            }
-            for (acc_a, wa) in acc.iter().zip(&wk) {
-                for e in 0..12 {
-                    vd[e] = madd::<FMA>(*wa, acc_a[e], vd[e]);
-                }
-            }
-        }
+            sums(
+                &self.flat[d * 9 * st * st..(d + 1) * 9 * st * st],
+                rows,
+                &wkl,
+            )
+        });
         let mut out = Matrix3::zeros();
         for beta in 0..4 {
             let mut mb = [0.0f64; 12];
@@ -264,7 +264,9 @@ impl ControlFlexTable {
         for (r1, w1) in self.real_rows(ka) {
             for (r2, w2) in self.real_rows(kb) {
                 let st = self.m.max(4);
-                let t = Matrix3::from_column_slice(&self.flat[(d * st + r1) * st + r2][..9]);
+                let t = Matrix3::from_fn(|d1, d2| {
+                    self.flat[((d * 9 + d1 + 3 * d2) * st + r1) * st + r2]
+                });
                 acc += w1 * w2 * nl.dot(&(t * fl));
             }
         }
@@ -280,6 +282,76 @@ impl ControlFlexTable {
             k => vec![(k - 1, 1.0)],
         }
     }
+}
+
+/// Where the 4 × 4 meridian rows of a pair sit in one `S × S` block of the table
+/// ([`ControlFlexTable`]): row `a` of the first contact, `b` of the second at
+/// `first + a·stride + b`.
+#[derive(Clone, Copy)]
+struct MeridianRows {
+    stride: usize,
+    first: usize,
+}
+
+/// `V_δ[e] = Σ_a Σ_b w[a][b] t_e[rows(a, b)]` for the nine entries `e` of the 3×3 blocks `t`
+/// of one class offset (nine `S × S` blocks, entry-major), as in [`ControlFlexTable::pair_block`];
+/// lanes 9..12 zero. Four lanes `b` at a time, summed in the order `(b₀ + b₁) + (b₂ + b₃)`.
+fn meridian_sums(t: &[f64], rows: MeridianRows, w: &[[f64; 4]; 4]) -> [f64; 12] {
+    let mut v = [0.0f64; 12];
+    for (ve, t) in v.iter_mut().zip(t.chunks_exact(rows.stride * rows.stride)) {
+        let mut lanes = [0.0f64; 4];
+        for (a, wa) in w.iter().enumerate() {
+            let row = &t[rows.first + a * rows.stride..][..4];
+            for b in 0..4 {
+                lanes[b] += wa[b] * row[b];
+            }
+        }
+        *ve = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+    }
+    v
+}
+
+/// [`meridian_sums`] in explicit AVX2/FMA code: one vector per row of four, nine
+/// accumulators in registers, their lane sums reduced four at a time.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn meridian_sums_avx2(t: &[f64], rows: MeridianRows, w: &[[f64; 4]; 4]) -> [f64; 12] {
+    use std::arch::x86_64::{
+        __m256d, _mm256_add_pd, _mm256_fmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd, _mm256_mul_pd,
+        _mm256_permute2f128_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+    };
+    let (st, first) = (rows.stride, rows.first);
+    // The last row read of the last block lies inside `t`.
+    assert!(first + 3 * st + 4 <= st * st && t.len() >= 9 * st * st);
+    // Lane sums of four accumulators as one vector (pairs first, then the halves).
+    let reduce4 = |a: __m256d, b: __m256d, c: __m256d, d: __m256d| {
+        let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
+        _mm256_add_pd(
+            _mm256_permute2f128_pd::<0x20>(ab, cd),
+            _mm256_permute2f128_pd::<0x31>(ab, cd),
+        )
+    };
+    let mut v = [0.0f64; 12];
+    // SAFETY: every row read lies inside `t` (asserted above); `v` holds 12 values.
+    unsafe {
+        let wv: [__m256d; 4] = std::array::from_fn(|a| _mm256_loadu_pd(w[a].as_ptr()));
+        let acc: [__m256d; 9] = std::array::from_fn(|e| {
+            let row = |a: usize| _mm256_loadu_pd(t.as_ptr().add(e * st * st + first + a * st));
+            let s = _mm256_mul_pd(wv[0], row(0));
+            let s = _mm256_fmadd_pd(wv[1], row(1), s);
+            let s = _mm256_fmadd_pd(wv[2], row(2), s);
+            _mm256_fmadd_pd(wv[3], row(3), s)
+        });
+        let z = _mm256_setzero_pd();
+        let p = v.as_mut_ptr();
+        _mm256_storeu_pd(p, reduce4(acc[0], acc[1], acc[2], acc[3]));
+        _mm256_storeu_pd(p.add(4), reduce4(acc[4], acc[5], acc[6], acc[7]));
+        _mm256_storeu_pd(p.add(8), reduce4(acc[8], z, z, z));
+    }
+    v
 }
 
 /// `R M Rᵀ` for the column-major 3×3 `M` in `m[..9]` and the rotation `R` about z by the
