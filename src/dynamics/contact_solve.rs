@@ -163,7 +163,7 @@ impl ControlFlexTable {
     /// control points and basis weights `c` (eq. 18). `V(l, k) = V(k, l)ᵀ` (Maxwell–Betti), so
     /// a contact matrix needs it once per unordered pair. The tensor-product weights are
     /// contracted along the meridian first, for the 7 distinct circumferential offsets, by
-    /// the products `w^k_a w^l_b` with the table's rows of four (~1.2k flops). AVX2/FMA code
+    /// the products `w^k_a w^l_b` with the table's rows of four (~2.4k flops). AVX2/FMA code
     /// when the CPU has it (runtime check; the same sums, fused).
     pub fn pair_block(
         &self,
