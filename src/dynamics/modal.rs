@@ -115,6 +115,9 @@ pub struct ModalKernel {
     eta_pred: Vec<f64>,
     spec_pred: Vec<f64>,
     pred_amplitude: Option<f64>,
+    /// Order of the last pass of `apply_force_spectrum` over the harmonics: alternated, so
+    /// that a pass starts on the bases the previous one used last, which are still in L2
+    /// (the bases of all harmonics are not, at the paper's size).
     descending: bool,
     /// Harmonic rows `(a, b)` of the last force passed to correct/response (`a = w Re X_k`,
     /// `b = −w Im X_k` of its sector DFT `X_k`).
@@ -528,7 +531,8 @@ impl ModalKernel {
     /// says where the increment goes (see [`ForceTarget`]). With `next = Some(a)` (and a state
     /// target), the predictor of the following step with load amplitude `a` is formed in the
     /// same pass, into `eta_pred`/`spec_pred`, so that a contact step reads each basis once
-    /// from memory.
+    /// from memory. The harmonics are independent: successive passes take them in opposite
+    /// orders (see `descending`), with the same results.
     fn apply_force_spectrum(&mut self, target: ForceTarget, next: Option<f64>) {
         #[cfg(target_arch = "x86_64")]
         {
