@@ -319,21 +319,14 @@ fn meridian_sums(t: &[f64], rows: MeridianRows, w: &[[f64; 4]; 4]) -> [f64; 12] 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn meridian_sums_avx2(t: &[f64], rows: MeridianRows, w: &[[f64; 4]; 4]) -> [f64; 12] {
+    use crate::dynamics::modal::lane_sums4;
     use std::arch::x86_64::{
-        __m256d, _mm256_add_pd, _mm256_fmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd, _mm256_mul_pd,
-        _mm256_permute2f128_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+        __m256d, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_setzero_pd,
+        _mm256_storeu_pd,
     };
     let (st, first) = (rows.stride, rows.first);
     // The last row read of the last block lies inside `t`.
     assert!(first + 3 * st + 4 <= st * st && t.len() >= 9 * st * st);
-    // Lane sums of four accumulators as one vector (pairs first, then the halves).
-    let reduce4 = |a: __m256d, b: __m256d, c: __m256d, d: __m256d| {
-        let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
-        _mm256_add_pd(
-            _mm256_permute2f128_pd::<0x20>(ab, cd),
-            _mm256_permute2f128_pd::<0x31>(ab, cd),
-        )
-    };
     let mut v = [0.0f64; 12];
     // SAFETY: every row read lies inside `t` (asserted above); `v` holds 12 values.
     unsafe {
@@ -347,9 +340,9 @@ unsafe fn meridian_sums_avx2(t: &[f64], rows: MeridianRows, w: &[[f64; 4]; 4]) -
         });
         let z = _mm256_setzero_pd();
         let p = v.as_mut_ptr();
-        _mm256_storeu_pd(p, reduce4(acc[0], acc[1], acc[2], acc[3]));
-        _mm256_storeu_pd(p.add(4), reduce4(acc[4], acc[5], acc[6], acc[7]));
-        _mm256_storeu_pd(p.add(8), reduce4(acc[8], z, z, z));
+        _mm256_storeu_pd(p, lane_sums4(acc[0], acc[1], acc[2], acc[3]));
+        _mm256_storeu_pd(p.add(4), lane_sums4(acc[4], acc[5], acc[6], acc[7]));
+        _mm256_storeu_pd(p.add(8), lane_sums4(acc[8], z, z, z));
     }
     v
 }

@@ -1112,6 +1112,24 @@ unsafe fn store_rows(p: *mut f64, x: std::arch::x86_64::__m256d, n: usize) {
     }
 }
 
+/// The lane sums of four accumulators as one vector `[Σa, Σb, Σc, Σd]`, each summed as
+/// `(x₀ + x₁) + (x₂ + x₃)`: the reduction of the explicit SIMD dot products.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) fn lane_sums4(
+    a: std::arch::x86_64::__m256d,
+    b: std::arch::x86_64::__m256d,
+    c: std::arch::x86_64::__m256d,
+    d: std::arch::x86_64::__m256d,
+) -> std::arch::x86_64::__m256d {
+    use std::arch::x86_64::{_mm256_add_pd, _mm256_hadd_pd, _mm256_permute2f128_pd};
+    let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
+    _mm256_add_pd(
+        _mm256_permute2f128_pd::<0x20>(ab, cd),
+        _mm256_permute2f128_pd::<0x31>(ab, cd),
+    )
+}
+
 /// [`project`] in explicit AVX2/FMA code, with the half height `h` (a multiple of 4).
 /// `PAIRED` (a complex harmonic): one pass over its half basis (see [`expand_avx2`]),
 /// `g₁ = V_aᵀ x_a + V_bᵀ x_b`, `g₂ = V_aᵀ x_b − V_bᵀ x_a`. Otherwise (a real harmonic)
@@ -1153,16 +1171,7 @@ unsafe fn project_columns<const W: usize, const PAIRED: bool>(
     p0: usize,
 ) {
     use std::arch::x86_64::{
-        __m256d, _mm256_add_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd, _mm256_hadd_pd, _mm256_loadu_pd,
-        _mm256_permute2f128_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-    };
-    // Lane sums of four accumulators as one vector [Σa, Σb, Σc, Σd].
-    let reduce4 = |a: __m256d, b: __m256d, c: __m256d, d: __m256d| {
-        let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
-        _mm256_add_pd(
-            _mm256_permute2f128_pd::<0x20>(ab, cd),
-            _mm256_permute2f128_pd::<0x31>(ab, cd),
-        )
+        _mm256_fmadd_pd, _mm256_fnmadd_pd, _mm256_loadu_pd, _mm256_setzero_pd, _mm256_storeu_pd,
     };
     let stride = if PAIRED { 2 * h } else { h };
     // SAFETY: the caller guarantees the bounds.
@@ -1187,10 +1196,10 @@ unsafe fn project_columns<const W: usize, const PAIRED: bool>(
             }
         }
         let mut t = [0.0f64; 4];
-        _mm256_storeu_pd(t.as_mut_ptr(), reduce4(a1[0], a1[1], a1[2], a1[3]));
+        _mm256_storeu_pd(t.as_mut_ptr(), lane_sums4(a1[0], a1[1], a1[2], a1[3]));
         g1[p0..p0 + W].copy_from_slice(&t[..W]);
         if PAIRED {
-            _mm256_storeu_pd(t.as_mut_ptr(), reduce4(a2[0], a2[1], a2[2], a2[3]));
+            _mm256_storeu_pd(t.as_mut_ptr(), lane_sums4(a2[0], a2[1], a2[2], a2[3]));
             g2[p0..p0 + W].copy_from_slice(&t[..W]);
         }
     }
