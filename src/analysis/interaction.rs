@@ -765,6 +765,18 @@ mod tests {
         [(n - disc) / (2.0 * b), (n + disc) / (2.0 * b)]
     }
 
+    fn interface<'a>(
+        n_sectors: usize,
+        contact_nodes: &'a [ContactNode],
+        modal_data: &'a [ModalData],
+    ) -> InterfaceModes<'a> {
+        InterfaceModes {
+            n_sectors,
+            contact_nodes,
+            modal_data,
+        }
+    }
+
     fn casing_nodes() -> Vec<ContactNode> {
         line(5, (0.20, 0.25), (0.0, 0.05), |_| 0.0)
     }
@@ -784,16 +796,8 @@ mod tests {
         let wc = TAU * 200.0;
         let cas_md = vec![modal(3, &[0.0], &[vec![wc]]), modal(1, &[0.0], &[vec![wc]])];
         let (bn, cn) = (blade_nodes(), casing_nodes());
-        let imp = InterfaceModes {
-            n_sectors: 12,
-            contact_nodes: &bn,
-            modal_data: &imp_md,
-        };
-        let cas = InterfaceModes {
-            n_sectors: 100,
-            contact_nodes: &cn,
-            modal_data: &cas_md,
-        };
+        let imp = interface(12, &bn, &imp_md);
+        let cas = interface(100, &cn, &cas_md);
         for interp in [Interpolation::Linear, Interpolation::CubicSpline] {
             let opts = CriterionOptions {
                 interpolation: interp,
@@ -828,16 +832,8 @@ mod tests {
         let wc = TAU * 200.0;
         let cas_md = vec![modal(3, &[0.0], &[vec![wc]])];
         let (bn, cn) = (blade_nodes(), casing_nodes());
-        let imp = InterfaceModes {
-            n_sectors: 12,
-            contact_nodes: &bn,
-            modal_data: &imp_md,
-        };
-        let cas = InterfaceModes {
-            n_sectors: 100,
-            contact_nodes: &cn,
-            modal_data: &cas_md,
-        };
+        let imp = interface(12, &bn, &imp_md);
+        let cas = interface(100, &cn, &cas_md);
         let table = critical_speeds(&imp, &cas, &CriterionOptions::default()).unwrap();
         let r = quad_roots(a, b, 3.0, wc);
         assert_eq!(table.len(), 2);
@@ -859,16 +855,8 @@ mod tests {
             .map(|&n| modal(n, &[0.0], &[vec![wc]]))
             .collect();
         let (bn, cn) = (blade_nodes(), casing_nodes());
-        let imp = InterfaceModes {
-            n_sectors: 12,
-            contact_nodes: &bn,
-            modal_data: &imp_md,
-        };
-        let cas = InterfaceModes {
-            n_sectors: 100,
-            contact_nodes: &cn,
-            modal_data: &cas_md,
-        };
+        let imp = interface(12, &bn, &imp_md);
+        let cas = interface(100, &cn, &cas_md);
         let table = critical_speeds(&imp, &cas, &CriterionOptions::default()).unwrap();
         assert_eq!(table.len(), 2, "{table:?}");
         for row in &table {
@@ -903,16 +891,8 @@ mod tests {
         let imp_md = vec![modal(5, &grid, &freqs)];
         let cas_md = vec![modal(5, &[0.0], &[vec![wc]])];
         let (bn, cn) = (blade_nodes(), casing_nodes());
-        let imp = InterfaceModes {
-            n_sectors: 20,
-            contact_nodes: &bn,
-            modal_data: &imp_md,
-        };
-        let cas = InterfaceModes {
-            n_sectors: 100,
-            contact_nodes: &cn,
-            modal_data: &cas_md,
-        };
+        let imp = interface(20, &bn, &imp_md);
+        let cas = interface(100, &cn, &cas_md);
         let qa = n * n - c;
         let qb = -2.0 * n * wc;
         let qc = wc * wc - w0 * w0;
@@ -1018,16 +998,8 @@ mod tests {
             shapes_im: vec![vec![cas_shape.1.clone()]],
             ..modal(5, &[0.0], &[vec![TAU * 50.0]])
         }];
-        let imp = InterfaceModes {
-            n_sectors: 20,
-            contact_nodes: &bn,
-            modal_data: &imp_md,
-        };
-        let cas = InterfaceModes {
-            n_sectors: 100,
-            contact_nodes: &cn,
-            modal_data: &cas_md,
-        };
+        let imp = interface(20, &bn, &imp_md);
+        let cas = interface(100, &cn, &cas_md);
         let t = critical_speeds(&imp, &cas, &CriterionOptions::default()).unwrap();
         assert_eq!(t.len(), 1);
         assert_relative_eq!(t[0].omega_rad_s, TAU * 150.0 / 5.0, max_relative = 1e-8);
@@ -1052,16 +1024,8 @@ mod tests {
         let (bn, cn) = (blade_nodes(), casing_nodes());
         let bad = vec![modal(3, &[0.0, 0.0], &[vec![1.0], vec![1.0]])];
         let cas_md = vec![modal(3, &[0.0], &[vec![1.0]])];
-        let imp = InterfaceModes {
-            n_sectors: 12,
-            contact_nodes: &bn,
-            modal_data: &bad,
-        };
-        let cas = InterfaceModes {
-            n_sectors: 100,
-            contact_nodes: &cn,
-            modal_data: &cas_md,
-        };
+        let imp = interface(12, &bn, &bad);
+        let cas = interface(100, &cn, &cas_md);
         assert!(matches!(
             critical_speeds(&imp, &cas, &CriterionOptions::default()),
             Err(InteractionError::BadGrid {
