@@ -133,7 +133,7 @@ impl ControlFlexTable {
                         let v = dq[spline.control_index(cl1 + 1, r1 + 1)];
                         for d1 in 0..3 {
                             // Column-major: entry (d1, d2) at d1 + 3 d2.
-                            flat[((cl1 * 9 + d1 + 3 * d2) * st + r1) * st + r2] = v[d1];
+                            flat[table_index(st, cl1, d1 + 3 * d2, (r1, r2))] = v[d1];
                         }
                     }
                 }
@@ -225,7 +225,7 @@ impl ControlFlexTable {
         let v: [[f64; 12]; 7] = std::array::from_fn(|di| {
             let d = (pk.i + n * 4 + di - 3 - pl.i) % n;
             sums(
-                &self.flat[d * 9 * st * st..(d + 1) * 9 * st * st],
+                &self.flat[table_index(st, d, 0, (0, 0))..table_index(st, d + 1, 0, (0, 0))],
                 rows,
                 &wkl,
             )
@@ -264,9 +264,8 @@ impl ControlFlexTable {
         for (r1, w1) in self.real_rows(ka) {
             for (r2, w2) in self.real_rows(kb) {
                 let st = self.m.max(4);
-                let t = Matrix3::from_fn(|d1, d2| {
-                    self.flat[((d * 9 + d1 + 3 * d2) * st + r1) * st + r2]
-                });
+                let t =
+                    Matrix3::from_fn(|d1, d2| self.flat[table_index(st, d, d1 + 3 * d2, (r1, r2))]);
                 acc += w1 * w2 * nl.dot(&(t * fl));
             }
         }
@@ -282,6 +281,13 @@ impl ControlFlexTable {
             k => vec![(k - 1, 1.0)],
         }
     }
+}
+
+/// Index in [`ControlFlexTable`]'s `flat` of entry `e` of the 3×3 block of class offset `d`
+/// and meridian rows `(r1, r2)`, with `st` rows per block side.
+#[inline(always)]
+fn table_index(st: usize, d: usize, e: usize, (r1, r2): (usize, usize)) -> usize {
+    ((d * 9 + e) * st + r1) * st + r2
 }
 
 /// Where the 4 × 4 meridian rows of a pair sit in one `S × S` block of the table
