@@ -1157,7 +1157,8 @@ pub(crate) fn lane_sums4(
 /// [`project`] in explicit AVX2/FMA code, with the half height `h` (a multiple of 4).
 /// `PAIRED` (a complex harmonic): one pass over its half basis (see [`expand_avx2`]),
 /// `g₁ = V_aᵀ x_a + V_bᵀ x_b`, `g₂ = V_aᵀ x_b − V_bᵀ x_a`. Otherwise (a real harmonic)
-/// `g = Vᵀ x` with `h` rows. Four columns at a time, their sums reduced together.
+/// `g = Vᵀ x` with `h` rows. In bands of up to 16 rows per part, whose `x` stays in registers
+/// while the columns go by two (the paper's casing and impeller have one band).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn project_avx2<const PAIRED: bool>(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
@@ -1168,63 +1169,96 @@ fn project_avx2<const PAIRED: bool>(basis: &[f64], h: usize, x: &[f64], g: &mut 
     };
     assert!(basis.len() >= parts * h * n && x.len() >= parts * h && h.is_multiple_of(4));
     let (g1, g2) = g.split_at_mut(n);
-    let mut p = 0;
-    while p < n {
-        // SAFETY: columns p..p + W lie inside `basis`, rows inside `x` (checked above).
-        unsafe { by_width!(n - p, project_columns::<PAIRED>(basis, h, x, g1, g2, p)) }
-        p += 4.min(n - p);
+    let mut r = 0;
+    while r < h {
+        // SAFETY: rows r..r + 4V of each part lie inside every column and `x` (checked above).
+        unsafe { by_width!((h - r) / 4, project_band::<PAIRED>(basis, h, x, g1, g2, r)) }
+        r += 16.min(h - r);
     }
 }
 
-/// Columns `p0..p0 + W` of [`project_avx2`] (`g2` is written only if `PAIRED`). `W` is a
-/// constant so that the accumulators stay in registers and the sums are stored by
-/// fixed-length copies.
+/// Rows `r0..r0 + 4V` of each part of [`project_avx2`], for all columns (`g2` is written only
+/// if `PAIRED`): the sums are stored by the first band (`r0 = 0`) and added by the others.
+/// `x` of the band is held in registers; two columns at a time, their four sums reduced
+/// together.
 ///
 /// # Safety
-/// The CPU has AVX2 and FMA; `p0 + W ≤ g1.len()`, `basis.len() ≥ parts·h(p0 + W)`,
-/// `x.len() ≥ parts·h` (`parts` = 2 if `PAIRED`, else 1), `h` a multiple of 4,
-/// `g2.len() = g1.len()` if `PAIRED`.
+/// The CPU has AVX2 and FMA; `r0 + 4V ≤ h`, `basis.len() ≥ parts·h·g1.len()`,
+/// `x.len() ≥ parts·h` (`parts` = 2 if `PAIRED`, else 1), `g2.len() = g1.len()` if `PAIRED`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn project_columns<const W: usize, const PAIRED: bool>(
+unsafe fn project_band<const V: usize, const PAIRED: bool>(
     basis: &[f64],
     h: usize,
     x: &[f64],
     g1: &mut [f64],
     g2: &mut [f64],
-    p0: usize,
+    r0: usize,
 ) {
     use std::arch::x86_64::{
-        _mm256_fmadd_pd, _mm256_fnmadd_pd, _mm256_loadu_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+        __m256d, _mm_add_pd, _mm_add_sd, _mm_load_sd, _mm_loadu_pd, _mm_store_sd, _mm_storeu_pd,
+        _mm256_castpd256_pd128, _mm256_extractf128_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,
+        _mm256_loadu_pd, _mm256_setzero_pd,
     };
     let stride = if PAIRED { 2 * h } else { h };
-    // SAFETY: the caller guarantees the bounds.
+    let n = g1.len();
+    // SAFETY: the caller guarantees the bounds (columns p < n of `g1`, `g2`).
     unsafe {
-        let mut a1 = [_mm256_setzero_pd(); 4];
-        let mut a2 = [_mm256_setzero_pd(); 4];
-        for r in (0..h).step_by(4) {
-            let xa = _mm256_loadu_pd(x.as_ptr().add(r));
-            if !PAIRED {
-                for (j, a1) in a1.iter_mut().enumerate().take(W) {
-                    let col = basis.as_ptr().add(stride * (p0 + j) + r);
-                    *a1 = _mm256_fmadd_pd(_mm256_loadu_pd(col), xa, *a1);
+        let xp = x.as_ptr().add(r0);
+        let xa: [__m256d; V] = std::array::from_fn(|i| _mm256_loadu_pd(xp.add(4 * i)));
+        let xb: [__m256d; V] = std::array::from_fn(|i| {
+            if PAIRED {
+                _mm256_loadu_pd(xp.add(h + 4 * i))
+            } else {
+                _mm256_setzero_pd()
+            }
+        });
+        // `sums = [g₁ of column p, g₁ of p + 1, g₂ of p, g₂ of p + 1]`: its halves go to
+        // `g₁`, `g₂` (`width` columns), stored by the first band and added by the others.
+        let (g1, g2) = (g1.as_mut_ptr(), g2.as_mut_ptr());
+        let put = |p: usize, sums: __m256d, width: usize| {
+            let halves = [
+                _mm256_castpd256_pd128(sums),
+                _mm256_extractf128_pd::<1>(sums),
+            ];
+            for (g, half) in [g1, g2]
+                .into_iter()
+                .zip(halves)
+                .take(if PAIRED { 2 } else { 1 })
+            {
+                let dst = g.add(p);
+                match (width, r0) {
+                    (2, 0) => _mm_storeu_pd(dst, half),
+                    (2, _) => _mm_storeu_pd(dst, _mm_add_pd(half, _mm_loadu_pd(dst))),
+                    (_, 0) => _mm_store_sd(dst, half),
+                    _ => _mm_store_sd(dst, _mm_add_sd(half, _mm_load_sd(dst))),
                 }
-                continue;
             }
-            let xb = _mm256_loadu_pd(x.as_ptr().add(h + r));
-            for j in 0..W {
-                let col = basis.as_ptr().add(stride * (p0 + j) + r);
-                let (va, vb) = (_mm256_loadu_pd(col), _mm256_loadu_pd(col.add(h)));
-                a1[j] = _mm256_fmadd_pd(vb, xb, _mm256_fmadd_pd(va, xa, a1[j]));
-                a2[j] = _mm256_fnmadd_pd(vb, xa, _mm256_fmadd_pd(va, xb, a2[j]));
+        };
+        let column = |p: usize| -> (__m256d, __m256d) {
+            let col = basis.as_ptr().add(stride * p + r0);
+            let (mut a1, mut a2) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+            for i in 0..V {
+                let va = _mm256_loadu_pd(col.add(4 * i));
+                a1 = _mm256_fmadd_pd(va, xa[i], a1);
+                if PAIRED {
+                    let vb = _mm256_loadu_pd(col.add(h + 4 * i));
+                    a1 = _mm256_fmadd_pd(vb, xb[i], a1);
+                    a2 = _mm256_fnmadd_pd(vb, xa[i], _mm256_fmadd_pd(va, xb[i], a2));
+                }
             }
+            (a1, a2)
+        };
+        let mut p = 0;
+        while p + 2 <= n {
+            let ((a, c), (b, d)) = (column(p), column(p + 1));
+            put(p, lane_sums4(a, b, c, d), 2);
+            p += 2;
         }
-        let mut t = [0.0f64; 4];
-        _mm256_storeu_pd(t.as_mut_ptr(), lane_sums4(a1[0], a1[1], a1[2], a1[3]));
-        g1[p0..p0 + W].copy_from_slice(&t[..W]);
-        if PAIRED {
-            _mm256_storeu_pd(t.as_mut_ptr(), lane_sums4(a2[0], a2[1], a2[2], a2[3]));
-            g2[p0..p0 + W].copy_from_slice(&t[..W]);
+        if p < n {
+            let (a, c) = column(p);
+            let z = _mm256_setzero_pd();
+            put(p, lane_sums4(a, z, c, z), 1);
         }
     }
 }
