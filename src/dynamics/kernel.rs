@@ -38,9 +38,10 @@ pub trait StructureKernel {
     fn boundary(&self) -> &[f64];
     /// Correction `u_{n+1} += A⁻¹ f` for boundary forces `f` (N, sector-major); refreshes the boundary.
     fn correct(&mut self, forces: &[f64]);
-    /// [`StructureKernel::correct`], after which the next [`StructureKernel::predict`] must be
-    /// called with `next_amplitude`; a kernel may form that predictor now, in the same pass
-    /// over its matrices (the result is the same).
+    /// [`StructureKernel::correct`], after which [`StructureKernel::advance`] and then
+    /// [`StructureKernel::predict`] with `next_amplitude` must follow; a kernel may form that
+    /// predictor now, in the same pass over its matrices (the result is the same), and may
+    /// keep it in place of `u_{n−1}`, which nothing reads before `advance`.
     fn correct_then_predict(&mut self, forces: &[f64], next_amplitude: f64) {
         let _ = next_amplitude;
         self.correct(forces);
