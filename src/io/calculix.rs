@@ -633,29 +633,12 @@ pub(crate) fn check_contact_dofs(
 pub fn import_calculix(spec: &CalculixImportSpec) -> Result<CyclicRom, ImportError> {
     let dofs = read_dof_map(&spec.dof_map)?;
     let mesh = read_calculix_mesh(&spec.mesh)?;
-    let contacts = contact_points(
-        &spec.contact,
-        &mesh.nodes,
-        &mesh.node_sets,
-        &spec.mesh,
-        spec.units.length_factor(),
-    )?;
-    check_contact_dofs(&contacts, &dofs, &spec.dof_map)?;
-    let common = ImportCommon {
-        name: &spec.name,
-        component: spec.component,
-        stiffness: &spec.stiffness,
-        mass: &spec.mass,
-        n_modes: spec.n_modes,
-        units: spec.units,
-        damping: spec.damping,
-    };
     reduce_imported(
         "calculix",
         serde_json::json!(spec),
-        &common,
+        &import_common!(spec),
         dofs,
-        &contacts,
+        (&mesh, &spec.mesh),
         read_matrix_storage,
     )
 }
@@ -670,22 +653,48 @@ pub(crate) struct ImportCommon<'a> {
     pub component: Component,
     pub stiffness: &'a Path,
     pub mass: &'a Path,
+    pub dof_map: &'a Path,
+    pub contact: &'a ContactSelection,
     pub n_modes: usize,
     pub units: Units,
     pub damping: Damping,
 }
 
-/// Reads the stiffness and mass with `read` (SI conversion from `common.units`), reduces them
-/// (Craig–Bampton, fixed interface at the contact nodes) and records the import in the ROM's
-/// provenance; shared by the CalculiX and Matrix Market importers.
+/// The [`ImportCommon`] of an import spec (the fields of that name).
+macro_rules! import_common {
+    ($spec:expr) => {
+        $crate::io::calculix::ImportCommon {
+            name: &$spec.name,
+            component: $spec.component,
+            stiffness: &$spec.stiffness,
+            mass: &$spec.mass,
+            dof_map: &$spec.dof_map,
+            contact: &$spec.contact,
+            n_modes: $spec.n_modes,
+            units: $spec.units,
+            damping: $spec.damping,
+        }
+    };
+}
+pub(crate) use import_common;
+
+/// Picks the contact nodes in `mesh` (its nodes and node sets, read from `mesh_path`),
+/// checks that the DOF map `dofs` holds their three translations, reads the stiffness and
+/// mass with `read` (SI conversion from `common.units`), reduces them (Craig–Bampton, fixed
+/// interface at the contact nodes) and records the import in the ROM's provenance; shared by
+/// the CalculiX and Matrix Market importers.
 pub(crate) fn reduce_imported(
     format: &str,
     spec: serde_json::Value,
     common: &ImportCommon<'_>,
     dofs: Vec<NodeDof>,
-    contacts: &[ContactPoint],
+    (mesh, mesh_path): (&CalculixMesh, &Path),
     read: MatrixReader,
 ) -> Result<CyclicRom, ImportError> {
+    let length = common.units.length_factor();
+    let (nodes, sets) = (&mesh.nodes, &mesh.node_sets);
+    let contacts = &contact_points(common.contact, nodes, sets, mesh_path, length)?;
+    check_contact_dofs(contacts, &dofs, common.dof_map)?;
     let n = dofs.len();
     let stiffness = read(common.stiffness, n, common.units.stiffness_factor())?;
     let mass = read(common.mass, n, common.units.mass_factor())?;

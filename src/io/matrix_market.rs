@@ -14,9 +14,8 @@
 //!   table `id x y z` per line (whitespace or comma separated, `#`/`%` comments).
 
 use crate::io::calculix::{
-    ContactSelection, ImportCommon, ImportError, LineReader, TriangleBuilder, Units,
-    check_contact_dofs, contact_points, parse_index, parse_value, read_calculix_mesh,
-    reduce_imported,
+    CalculixMesh, ContactSelection, ImportError, LineReader, TriangleBuilder, Units, import_common,
+    parse_index, parse_value, read_calculix_mesh, reduce_imported,
 };
 use crate::model::component::{NodeDof, sparse_from_entries};
 use crate::model::rom::{Component, CyclicRom, Damping};
@@ -279,35 +278,20 @@ pub fn import_matrix_market(spec: &MatrixMarketImportSpec) -> Result<CyclicRom, 
             .as_deref(),
         Some("inp" | "msh")
     );
-    let (nodes, sets) = if is_deck {
-        let m = read_calculix_mesh(&spec.nodes)?;
-        (m.nodes, m.node_sets)
+    let mesh = if is_deck {
+        read_calculix_mesh(&spec.nodes)?
     } else {
-        (read_node_table(&spec.nodes)?, HashMap::new())
-    };
-    let contacts = contact_points(
-        &spec.contact,
-        &nodes,
-        &sets,
-        &spec.nodes,
-        spec.units.length_factor(),
-    )?;
-    check_contact_dofs(&contacts, &dofs, &spec.dof_map)?;
-    let common = ImportCommon {
-        name: &spec.name,
-        component: spec.component,
-        stiffness: &spec.stiffness,
-        mass: &spec.mass,
-        n_modes: spec.n_modes,
-        units: spec.units,
-        damping: spec.damping,
+        CalculixMesh {
+            nodes: read_node_table(&spec.nodes)?,
+            ..Default::default()
+        }
     };
     reduce_imported(
         "matrix_market",
         serde_json::json!(spec),
-        &common,
+        &import_common!(spec),
         dofs,
-        &contacts,
+        (&mesh, &spec.nodes),
         read_matrix_market,
     )
 }
