@@ -724,7 +724,7 @@ pub(crate) fn reduce_imported(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use std::io::Write;
 
@@ -741,7 +741,7 @@ mod tests {
         d
     }
 
-    fn line_err(e: ImportError) -> (String, usize, String) {
+    pub(crate) fn line_err(e: ImportError) -> (String, usize, String) {
         match e {
             ImportError::Line { file, line, reason } => (
                 file.file_name().unwrap().to_string_lossy().into_owned(),

@@ -299,22 +299,11 @@ pub fn import_matrix_market(spec: &MatrixMarketImportSpec) -> Result<CyclicRom, 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::calculix::tests::{line_err, scratch, write};
     use crate::model::component::dense_modes;
     use approx::assert_relative_eq;
     use nalgebra::DMatrix;
     use std::fmt::Write as _;
-
-    fn scratch(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("rubscan-imp-mm-{tag}-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    }
-
-    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-        let p = dir.join(name);
-        std::fs::write(&p, text).unwrap();
-        p
-    }
 
     /// A planar-in-3-D spring–mass chain of `n` nodes along x (ids 1..=n, spacing 10 mm),
     /// clamped at a wall before node 1, each node with 3 DOFs, in mm-t-s units:
@@ -372,7 +361,7 @@ mod tests {
 
     #[test]
     fn chain_round_trips_through_import_and_reduction() {
-        let d = scratch("chain");
+        let d = scratch("mm-chain");
         let n = 30;
         let (k, m, dofs) = chain(n);
         let kp = write(&d, "K.mtx", &mtx(&k, true));
@@ -425,7 +414,7 @@ mod tests {
 
     #[test]
     fn all_modes_kept_reproduces_the_full_spectrum() {
-        let d = scratch("exact");
+        let d = scratch("mm-exact");
         let n = 8;
         let (k, m, dofs) = chain(n);
         let spec = MatrixMarketImportSpec {
@@ -460,23 +449,12 @@ mod tests {
         }
     }
 
-    fn line_of(e: ImportError) -> (String, usize, String) {
-        match e {
-            ImportError::Line { file, line, reason } => (
-                file.file_name().unwrap().to_string_lossy().into_owned(),
-                line,
-                reason,
-            ),
-            other => panic!("expected a line error, got {other}"),
-        }
-    }
-
     #[test]
     fn malformed_matrix_market_is_rejected() {
-        let d = scratch("bad");
+        let d = scratch("mm-bad");
         let hdr = "%%MatrixMarket matrix coordinate real symmetric\n";
         let p = write(&d, "t.mtx", &format!("{hdr}2 2 3\n1 1 2.0\n2 1 -1.0\n"));
-        let (f, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        let (f, line, why) = line_err(read_matrix_market(&p, 2, 1.0).unwrap_err());
         assert_eq!((f.as_str(), line), ("t.mtx", 4));
         assert!(
             why.contains("truncated") && why.contains("2 of the 3"),
@@ -488,12 +466,12 @@ mod tests {
             "c.mtx",
             &format!("{hdr}2 2 3\n1 1 2.0\n2 1 -1.0 7\n2 2 3\n"),
         );
-        let (_, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        let (_, line, why) = line_err(read_matrix_market(&p, 2, 1.0).unwrap_err());
         assert_eq!(line, 4);
         assert!(why.contains("extra field"), "{why}");
 
         let p = write(&d, "s.mtx", &format!("{hdr}3 3 1\n1 1 2.0\n"));
-        let (_, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        let (_, line, why) = line_err(read_matrix_market(&p, 2, 1.0).unwrap_err());
         assert_eq!(line, 2);
         assert!(why.contains("order 3 but the DOF map has 2"), "{why}");
 
@@ -502,7 +480,7 @@ mod tests {
             "g.mtx",
             "%%MatrixMarket matrix coordinate real general\n2 2 4\n1 1 2.0\n2 1 -1.0\n1 2 -1.5\n2 2 3\n",
         );
-        let (_, line, why) = line_of(read_matrix_market(&p, 2, 1.0).unwrap_err());
+        let (_, line, why) = line_err(read_matrix_market(&p, 2, 1.0).unwrap_err());
         assert_eq!(line, 4);
         assert!(why.contains("non-symmetric"), "{why}");
 
@@ -512,13 +490,13 @@ mod tests {
             "%%MatrixMarket matrix array real general\n2 2\n",
         );
         assert!(
-            line_of(read_matrix_market(&p, 2, 1.0).unwrap_err())
+            line_err(read_matrix_market(&p, 2, 1.0).unwrap_err())
                 .2
                 .contains("array")
         );
         let p = write(&d, "o.mtx", &format!("{hdr}2 2 1\n1 3 2.0\n"));
         assert!(
-            line_of(read_matrix_market(&p, 2, 1.0).unwrap_err())
+            line_err(read_matrix_market(&p, 2, 1.0).unwrap_err())
                 .2
                 .contains("out of range")
         );
@@ -526,7 +504,7 @@ mod tests {
 
     #[test]
     fn import_errors_name_the_file() {
-        let d = scratch("imp");
+        let d = scratch("mm-imp");
         let (k, m, dofs) = chain(4);
         let mut spec = MatrixMarketImportSpec {
             name: "c".into(),
@@ -572,7 +550,7 @@ mod tests {
         assert!(e.contains("d.txt") && e.contains("contact node 5"), "{e}");
         // Corrupted DOF map line.
         spec.dof_map = write(&d, "d2.txt", "1 1\n1 2\n1 x\n");
-        let (f, line, _) = line_of(import_matrix_market(&spec).unwrap_err());
+        let (f, line, _) = line_err(import_matrix_market(&spec).unwrap_err());
         assert_eq!((f.as_str(), line), ("d2.txt", 3));
     }
 }
