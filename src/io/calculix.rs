@@ -288,23 +288,37 @@ impl TriangleBuilder {
 
 /// Reads a CalculiX `.dof` file (`node.direction` per line, direction 1..=3).
 pub fn read_dof_map(path: &Path) -> Result<Vec<NodeDof>, ImportError> {
+    read_dof_lines(
+        path,
+        "node.direction",
+        |_| false,
+        |t| {
+            let (a, b) = t.split_once('.')?;
+            Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
+        },
+    )
+}
+
+/// Reads a DOF list of one `(node, direction)` per line (direction 1..=3 for x, y, z), as
+/// `parse` reads a trimmed line (`None`: not of the `form` the error message names); blank
+/// lines and the lines `comment` accepts are skipped. Refuses other directions, repeated
+/// DOFs and an empty list.
+pub(crate) fn read_dof_lines(
+    path: &Path,
+    form: &str,
+    comment: fn(&str) -> bool,
+    parse: fn(&str) -> Option<(usize, usize)>,
+) -> Result<Vec<NodeDof>, ImportError> {
     let mut rd = LineReader::open(path)?;
     let mut dofs = Vec::new();
     let mut seen = std::collections::HashSet::new();
     while let Some(l) = rd.next_line()? {
-        let line = l.text;
-        let t = line.trim();
-        if t.is_empty() {
+        let t = l.text.trim();
+        if t.is_empty() || comment(t) {
             continue;
         }
-        let parsed = t.split_once('.').and_then(|(a, b)| {
-            Some((
-                a.trim().parse::<usize>().ok()?,
-                b.trim().parse::<usize>().ok()?,
-            ))
-        });
-        let Some((node, dir)) = parsed else {
-            return Err(l.err(format!("expected 'node.direction', found '{t}'")));
+        let Some((node, dir)) = parse(t) else {
+            return Err(l.err(format!("expected '{form}', found '{t}'")));
         };
         if !(1..=3).contains(&dir) {
             return Err(l.err(format!(
@@ -313,7 +327,7 @@ pub fn read_dof_map(path: &Path) -> Result<Vec<NodeDof>, ImportError> {
         }
         let d = NodeDof { node, dir: dir - 1 };
         if !seen.insert(d) {
-            return Err(l.err(format!("DOF {node}.{dir} is listed twice")));
+            return Err(l.err(format!("DOF {dir} of node {node} is listed twice")));
         }
         dofs.push(d);
     }

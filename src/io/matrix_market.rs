@@ -15,7 +15,7 @@
 
 use crate::io::calculix::{
     CalculixMesh, ContactSelection, ImportError, LineReader, TriangleBuilder, Units, import_common,
-    parse_index, parse_value, read_calculix_mesh, reduce_imported,
+    parse_index, parse_value, read_calculix_mesh, read_dof_lines, reduce_imported,
 };
 use crate::model::component::{NodeDof, sparse_from_entries};
 use crate::model::rom::{Component, CyclicRom, Damping};
@@ -174,36 +174,13 @@ pub fn read_matrix_market(
 
 /// Reads a DOF map in the rubscan text format (`node direction` per row, see module doc).
 pub fn read_dof_list(path: &Path) -> Result<Vec<NodeDof>, ImportError> {
-    let mut rd = LineReader::open(path)?;
-    let mut dofs = Vec::new();
-    let mut seen = std::collections::HashSet::new();
-    while let Some(l) = rd.next_line()? {
-        let line = l.text;
-        let t = line.trim();
-        if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
-            continue;
-        }
-        let f: Vec<&str> = t.split_ascii_whitespace().collect();
-        let parsed = match f[..] {
-            [a, b] => a.parse::<usize>().ok().zip(b.parse::<usize>().ok()),
-            _ => None,
-        };
-        let Some((node, dir)) = parsed.filter(|&(node, _)| node > 0) else {
-            return Err(l.err(format!("expected 'node direction', found '{t}'")));
-        };
-        if !(1..=3).contains(&dir) {
-            return Err(l.err(format!("direction {dir} of node {node} must be 1, 2 or 3")));
-        }
-        let d = NodeDof { node, dir: dir - 1 };
-        if !seen.insert(d) {
-            return Err(l.err(format!("DOF ({node}, {dir}) is listed twice")));
-        }
-        dofs.push(d);
-    }
-    if dofs.is_empty() {
-        return Err(ImportError::file(path, "no DOFs"));
-    }
-    Ok(dofs)
+    let comment = |t: &str| t.starts_with('#') || t.starts_with('%');
+    read_dof_lines(path, "node direction", comment, |t| {
+        let mut f = t.split_ascii_whitespace();
+        let (a, b) = (f.next()?, f.next()?);
+        let node = a.parse().ok().filter(|&node| node > 0)?;
+        f.next().is_none().then_some((node, b.parse().ok()?))
+    })
 }
 
 /// Reads a node table `id x y z` per line (see module doc), coordinates in file units.
@@ -447,6 +424,35 @@ mod tests {
         for (a, b) in rom.modal_data[0].frequencies[0].iter().zip(&f_ref) {
             assert_relative_eq!(*a, *b, max_relative = 1e-9);
         }
+    }
+
+    #[test]
+    fn reads_dof_list_and_rejects_bad_lines() {
+        let d = scratch("mm-dof");
+        let p = write(&d, "a.txt", "# node direction\n3 1\n% x\n\n3 2\n10   3\n");
+        let dofs = read_dof_list(&p).unwrap();
+        assert_eq!(
+            dofs,
+            [(3, 0), (3, 1), (10, 2)].map(|(node, dir)| NodeDof { node, dir })
+        );
+        for (text, line, why) in [
+            ("3 1\n3 4\n", 2, "direction 4"),
+            ("3 1\n3 1 2\n", 2, "expected 'node direction'"),
+            ("0 1\n", 1, "expected 'node direction'"),
+            ("3 1\n3 2\n3 1\n", 3, "twice"),
+        ] {
+            let p = write(&d, "b.txt", text);
+            let (_, l, w) = line_err(read_dof_list(&p).unwrap_err());
+            assert_eq!(l, line, "{text:?}");
+            assert!(w.contains(why), "{text:?}: {w}");
+        }
+        let p = write(&d, "c.txt", "# nothing\n");
+        assert!(
+            read_dof_list(&p)
+                .unwrap_err()
+                .to_string()
+                .contains("no DOFs")
+        );
     }
 
     #[test]
