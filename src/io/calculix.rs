@@ -183,6 +183,24 @@ impl Line<'_> {
     }
 }
 
+/// One matrix entry `row col value` (1-based indices ≤ `n`, 0-based on return) from the
+/// fields of a line; the error says what is wrong and what was expected.
+pub(crate) fn parse_entry<'a>(
+    mut fields: impl Iterator<Item = &'a str>,
+    n: usize,
+) -> Result<(usize, usize, f64), String> {
+    let parsed = (|| {
+        let r = parse_index(fields.next(), n, "row")?;
+        let c = parse_index(fields.next(), n, "column")?;
+        let v = parse_value(fields.next(), "value")?;
+        if let Some(extra) = fields.next() {
+            return Err(format!("unexpected extra field '{extra}'"));
+        }
+        Ok((r, c, v))
+    })();
+    parsed.map_err(|e| format!("{e} (expected 'row col value')"))
+}
+
 /// Parses a 1-based index in `1..=n` and returns it 0-based.
 pub(crate) fn parse_index(tok: Option<&str>, n: usize, what: &str) -> Result<usize, String> {
     let tok = tok.ok_or_else(|| format!("missing {what}"))?;
@@ -358,16 +376,7 @@ pub fn read_matrix_storage(
         if !l.complete {
             return Err(l.err("last line has no end of line: truncated file"));
         }
-        let parsed = (|| {
-            let r = parse_index(Some(first), n, "row")?;
-            let c = parse_index(it.next(), n, "column")?;
-            let v = parse_value(it.next(), "value")?;
-            if let Some(extra) = it.next() {
-                return Err(format!("unexpected extra field '{extra}'"));
-            }
-            Ok((r, c, v))
-        })();
-        let (r, c, v) = parsed.map_err(|e| l.err(format!("{e} (expected 'row col value')")))?;
+        let (r, c, v) = parse_entry(std::iter::once(first).chain(it), n).map_err(|e| l.err(e))?;
         tri.push(r, c, v).map_err(|e| l.err(e))?;
     }
     tri.finish(path, factor)

@@ -15,7 +15,7 @@
 
 use crate::io::calculix::{
     CalculixMesh, ContactSelection, ImportError, LineReader, TriangleBuilder, Units, import_common,
-    parse_index, parse_value, read_calculix_mesh, read_dof_lines, reduce_imported,
+    parse_entry, parse_value, read_calculix_mesh, read_dof_lines, reduce_imported,
 };
 use crate::model::component::{NodeDof, sparse_from_entries};
 use crate::model::rom::{Component, CyclicRom, Damping};
@@ -105,17 +105,7 @@ pub fn read_matrix_market(
         if count == nnz {
             return Err(l.err(format!("more entries than the {nnz} announced")));
         }
-        let mut it = t.split_ascii_whitespace();
-        let parsed = (|| {
-            let r = parse_index(it.next(), n, "row")?;
-            let c = parse_index(it.next(), n, "column")?;
-            let v = parse_value(it.next(), "value")?;
-            if let Some(extra) = it.next() {
-                return Err(format!("unexpected extra field '{extra}'"));
-            }
-            Ok((r, c, v))
-        })();
-        let (r, c, v) = parsed.map_err(|e| l.err(format!("{e} (expected 'row col value')")))?;
+        let (r, c, v) = parse_entry(t.split_ascii_whitespace(), n).map_err(|e| l.err(e))?;
         if symmetric {
             tri.push(r, c, v).map_err(|e| l.err(e))?;
         } else {
