@@ -2,12 +2,12 @@
 //! Parquet time series, clear errors on bad specs, and a sweep killed with SIGKILL then
 //! resumed giving the table of an uninterrupted run.
 
+mod common;
+use common::table_without_timing;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-use arrow_array::RecordBatch;
-use rubscan::io::parquet::read_results;
 
 const SMALL: &str = "tests/data/small_sweep.json";
 
@@ -99,19 +99,6 @@ fn bad_specs_fail_with_the_json_path_and_write_nothing() {
         assert!(!out.exists(), "{tag}: output written");
     }
     std::fs::remove_dir_all(&dir).unwrap();
-}
-
-fn table_without_timing(dir: &Path) -> Vec<RecordBatch> {
-    read_results(&dir.join("results.parquet"))
-        .unwrap()
-        .into_iter()
-        .map(|b| {
-            let keep: Vec<usize> = (0..b.num_columns())
-                .filter(|&i| b.schema().field(i).name() != "wall_time_s")
-                .collect();
-            b.project(&keep).unwrap()
-        })
-        .collect()
 }
 
 fn job_files(dir: &Path) -> usize {

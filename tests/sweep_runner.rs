@@ -1,5 +1,8 @@
 //! Runner: resume, thread-count and shard independence, Parquet read-back, failures.
 
+mod common;
+use common::table_without_timing;
+
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -74,20 +77,6 @@ fn opts(dir: &Path, threads: usize) -> RunOptions {
     o
 }
 
-/// The table without the timing column.
-fn table(dir: &Path) -> Vec<RecordBatch> {
-    read_results(&dir.join("results.parquet"))
-        .unwrap()
-        .into_iter()
-        .map(|b| {
-            let keep: Vec<usize> = (0..b.num_columns())
-                .filter(|&i| b.schema().field(i).name() != "wall_time_s")
-                .collect();
-            b.project(&keep).unwrap()
-        })
-        .collect()
-}
-
 fn n_rows(t: &[RecordBatch]) -> usize {
     t.iter().map(RecordBatch::num_rows).sum()
 }
@@ -111,7 +100,7 @@ fn resume_after_cancel_runs_only_unfinished_jobs() {
     assert!(first.cancelled);
     assert_eq!((first.ran, first.unfinished), (k, total - k));
     assert_eq!(sim.calls.load(Ordering::SeqCst), k);
-    assert_eq!(n_rows(&table(&dir)), k);
+    assert_eq!(n_rows(&table_without_timing(&dir)), k);
 
     // Resume: only the remaining jobs run, and the table equals the uninterrupted one.
     let sim = Counting::new(SyntheticSimulator::default());
@@ -121,7 +110,7 @@ fn resume_after_cancel_runs_only_unfinished_jobs() {
         (second.skipped, second.ran, second.unfinished),
         (k, total - k, 0)
     );
-    assert_eq!(table(&dir), table(&full_dir));
+    assert_eq!(table_without_timing(&dir), table_without_timing(&full_dir));
 
     // A third run has nothing to do.
     let sim = Counting::new(SyntheticSimulator::default());
@@ -144,7 +133,10 @@ fn resume_after_cancel_runs_only_unfinished_jobs() {
     let sim = Counting::new(SyntheticSimulator::default());
     run_sweep(&spec, &opts(&seeded, 2), &sim).unwrap();
     assert_eq!(sim.calls.load(Ordering::SeqCst), total - copied);
-    assert_eq!(table(&seeded), table(&full_dir));
+    assert_eq!(
+        table_without_timing(&seeded),
+        table_without_timing(&full_dir)
+    );
 
     for d in [full_dir, dir, seeded] {
         std::fs::remove_dir_all(d).unwrap();
@@ -182,7 +174,7 @@ fn cancel_mid_job_leaves_no_partial_files() {
     );
     let resumed = run_sweep(&spec, &opts(&dir, 2), &SyntheticSimulator::default()).unwrap();
     assert_eq!(resumed.ran, s.unfinished);
-    assert_eq!(n_rows(&table(&dir)), 20);
+    assert_eq!(n_rows(&table_without_timing(&dir)), 20);
     std::fs::remove_dir_all(dir).unwrap();
 }
 
@@ -196,7 +188,7 @@ fn thread_count_and_sharding_do_not_change_the_table() {
     let mut o2 = opts(&d2, 2);
     o2.progress = true;
     run_sweep(&spec, &o2, &SyntheticSimulator::default()).unwrap();
-    assert_eq!(table(&d1), table(&d2));
+    assert_eq!(table_without_timing(&d1), table_without_timing(&d2));
 
     let s0 = tmp("shard0");
     let s1 = tmp("shard1");
@@ -209,7 +201,7 @@ fn thread_count_and_sharding_do_not_change_the_table() {
     assert_eq!((r0.in_shard, r1.in_shard), (10, 10));
     // Shard i holds exactly the indices ≡ i mod 2.
     for (d, i) in [(&s0, 0u64), (&s1, 1u64)] {
-        for b in table(d) {
+        for b in table_without_timing(d) {
             let idx = b
                 .column_by_name("job_index")
                 .unwrap()
@@ -220,7 +212,7 @@ fn thread_count_and_sharding_do_not_change_the_table() {
     let merged = tmp("merged");
     let m = merge(&[s0.clone(), s1.clone()], &merged).unwrap();
     assert_eq!((m.planned, m.found, m.missing.len()), (20, 20, 0));
-    assert_eq!(table(&merged), table(&d1));
+    assert_eq!(table_without_timing(&merged), table_without_timing(&d1));
     // Merging only one shard reports the missing jobs.
     let partial = tmp("partial");
     let m = merge(std::slice::from_ref(&s0), &partial).unwrap();
