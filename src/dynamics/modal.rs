@@ -95,10 +95,8 @@ pub struct ModalKernel {
     omega2: Vec<f64>,
     c1: Vec<f64>,
     c2: Vec<f64>,
-    /// `c₃ = 1/a` per mode, from `c₂` by [`c3_of`] (the step derives it the same way rather
-    /// than read a third coefficient stream). Used off the step loop.
-    c3: Vec<f64>,
-    /// `h²/2` (s²), the factor of [`c3_of`].
+    /// `h²/2` (s²): `c₃ = 1/a` of each mode is [`c3_of`] its `c₂` (not stored: a third
+    /// coefficient stream less per step).
     half_h2: f64,
     /// `η_{n−1}`; between a fused correction (`pred_amplitude` set) and `advance`, the
     /// predictor `η*_{n+2}` instead, which `advance` rotates into `eta_next`: three buffers,
@@ -233,7 +231,6 @@ impl ModalKernel {
             masses.push(b.mass.clone());
         }
         let n = st.n_modal;
-        let c3 = c2.iter().map(|&c2| c3_of(c2, half_h2)).collect();
         let n_blocks = blocks.len();
         let scratch_len = r2c.get_scratch_len().max(c2r.get_scratch_len());
         let dft_weights = sector_dft_weights(ns, &blocks);
@@ -245,7 +242,6 @@ impl ModalKernel {
             omega2,
             c1,
             c2,
-            c3,
             half_h2,
             eta_prev: vec![0.0; n],
             eta: vec![0.0; n],
@@ -287,13 +283,14 @@ impl ModalKernel {
     pub fn static_boundary(&mut self, forces: &[f64], out: &mut [f64]) -> Result<(), String> {
         self.tmp_eta.iter_mut().for_each(|x| *x = 0.0);
         self.add_response(forces, Which::Tmp);
+        let h2 = self.half_h2;
         let gmax = self
             .tmp_eta
             .iter()
-            .zip(&self.c3)
-            .fold(0.0f64, |m, (t, c)| m.max((t / c).abs()));
+            .zip(&self.c2)
+            .fold(0.0f64, |m, (t, &c2)| m.max((t / c3_of(c2, h2)).abs()));
         for i in 0..self.tmp_eta.len() {
-            let g = self.tmp_eta[i] / self.c3[i];
+            let g = self.tmp_eta[i] / c3_of(self.c2[i], h2);
             if self.omega2[i] > 0.0 {
                 self.tmp_eta[i] = g / self.omega2[i];
             } else if g.abs() > 1e-12 * gmax {
@@ -582,14 +579,15 @@ impl ModalKernel {
             project(b, b.step_basis(), &self.fspec[chunk.clone()], yb, deta);
             match target {
                 ForceTarget::Response => {
-                    scale(deta, &self.c3[r]);
+                    for (x, &c2) in deta.iter_mut().zip(&self.c2[r]) {
+                        *x *= c3_of(c2, self.half_h2);
+                    }
                     expand(b, b.step_basis(), deta, &mut self.spec[chunk], yb);
                 }
                 ForceTarget::State { channels } => {
                     let coefs = [&self.c1[r.clone()], &self.c2[r.clone()]];
-                    let load = if self.block_loaded[k] { next } else { None };
-                    let load = load
-                        .filter(|&a| a != 0.0)
+                    let load = next
+                        .filter(|&a| a != 0.0 && self.block_loaded[k])
                         .map(|a| (&self.gload[r.clone()], a));
                     let pred = next.map(|_| &mut self.eta_prev[r.clone()]);
                     let past = (&self.eta[r.clone()], load);
@@ -628,7 +626,7 @@ impl ModalKernel {
                 g,
             );
             for p in 0..b.dim {
-                eta[b.offset + p] += self.c3[b.offset + p] * g[p];
+                eta[b.offset + p] += c3_of(self.c2[b.offset + p], self.half_h2) * g[p];
             }
         }
     }
@@ -708,13 +706,7 @@ impl ModalKernel {
     }
 }
 
-/// `x *= c`, elementwise (a per-mode loop of the kernel, on slices of one length).
-#[inline(always)]
-fn scale(x: &mut [f64], c: &[f64]) {
-    x.iter_mut().zip(c).for_each(|(x, c)| *x *= c);
-}
-
-/// `x += d`, elementwise (see [`scale`]).
+/// `x += d`, elementwise (a per-mode loop of the kernel, on slices of one length).
 #[inline(always)]
 fn add_to(x: &mut [f64], d: &[f64]) {
     x.iter_mut().zip(d).for_each(|(x, d)| *x += d);
@@ -1426,8 +1418,8 @@ impl StructureKernel for ModalKernel {
         // g = Φᵀ P f: reuse the response path with c3 divided out.
         self.tmp_eta.iter_mut().for_each(|x| *x = 0.0);
         self.add_response(pattern, Which::Tmp);
-        for (g, (t, c3)) in self.gload.iter_mut().zip(self.tmp_eta.iter().zip(&self.c3)) {
-            *g = t / c3;
+        for (g, (t, &c2)) in self.gload.iter_mut().zip(self.tmp_eta.iter().zip(&self.c2)) {
+            *g = t / c3_of(c2, self.half_h2);
         }
         // A harmonic the pattern does not load gets round-off from the sector DFT (a lobed
         // load is one harmonic): flushed to zero, so that the step skips its load term.
