@@ -539,9 +539,10 @@ impl ModalKernel {
     /// `Δη = diag(1/a) Φ_bᵀ F_k`, then `ΔU_k = Φ_b Δη` while Φ_b is hot in cache. `target`
     /// says where the increment goes (see [`ForceTarget`]). With `next = Some(a)` (and a state
     /// target), the predictor of the following step with load amplitude `a` is formed in the
-    /// same pass, into `eta_pred`/`spec_pred`, so that a contact step reads each basis once
-    /// from memory. The harmonics are independent: successive passes take them in opposite
-    /// orders (see `descending`), with the same results.
+    /// same pass, into `eta_prev` (η_{n−1} is no longer needed) and `spec_pred`, so that a
+    /// contact step reads each basis once from memory. The harmonics are independent:
+    /// successive passes take them in opposite orders (see `descending`), with the same
+    /// results.
     fn apply_force_spectrum(&mut self, target: ForceTarget, next: Option<f64>) {
         #[cfg(target_arch = "x86_64")]
         {
@@ -713,11 +714,12 @@ fn add_to(x: &mut [f64], d: &[f64]) {
 }
 
 /// `c₃ = 1/a = (1 − c₂) h²/2` of a mode from its `c₂` (`half_h2` = h²/2): with
-/// `a = 1/h² + c/2h`, `c₂ = −(1/h² − c/2h)/a = 1 − 2/(h² a)`. One fused multiply-add, the
-/// same bits wherever the kernel needs `c₃`.
+/// `a = 1/h² + c/2h`, `c₂ = −(1/h² − c/2h)/a = 1 − 2/(h² a)`. Plain operations (never
+/// contracted into an FMA, which would be a libm call on a CPU without one), so the same
+/// bits wherever and however the kernel is compiled.
 #[inline(always)]
 fn c3_of(c2: f64, half_h2: f64) -> f64 {
-    (-c2).mul_add(half_h2, half_h2)
+    (1.0 - c2) * half_h2
 }
 
 /// Central-difference predictor per mode: `η_{n+1} = c₁ η_n + c₂ η_{n−1} + c₃ a g` with
