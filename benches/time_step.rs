@@ -16,7 +16,7 @@ fn time_step(c: &mut Criterion) {
     g.sample_size(10);
     for (kernel, steps) in [
         (KernelChoice::Fast, 5000),
-        (KernelChoice::DenseReference, 50),
+        (KernelChoice::DenseReference, 10),
     ] {
         for builtin in [false, true] {
             for contact in [false, true] {
