@@ -1493,15 +1493,22 @@ impl StructureKernel for ModalKernel {
     }
     fn energies(&self) -> Energies {
         // Four lanes of partial sums in a fixed order: vectorised and still deterministic.
+        // Whole chunks as arrays, so that the loop is four wide; the tail goes to the first lanes.
         let (mut kinetic, mut strain) = ([0.0f64; 4], [0.0f64; 4]);
-        let lanes = self.eta.chunks(4).zip(self.eta_prev.chunks(4));
-        for ((eta, prev), omega2) in lanes.zip(self.omega2.chunks(4)) {
+        let mut add = |eta: &[f64], prev: &[f64], omega2: &[f64]| {
             for j in 0..eta.len() {
                 let d = eta[j] - prev[j];
                 kinetic[j] += d * d;
                 strain[j] += omega2[j] * eta[j] * prev[j];
             }
+        };
+        let (eta, eta_tail) = self.eta.as_chunks::<4>();
+        let (prev, prev_tail) = self.eta_prev.as_chunks::<4>();
+        let (omega2, omega2_tail) = self.omega2.as_chunks::<4>();
+        for ((e, p), w) in eta.iter().zip(prev).zip(omega2) {
+            add(e, p, w);
         }
+        add(eta_tail, prev_tail, omega2_tail);
         let sum = |x: [f64; 4]| (x[0] + x[1]) + (x[2] + x[3]);
         Energies {
             kinetic: 0.5 * sum(kinetic) / (self.h * self.h),
