@@ -1492,8 +1492,8 @@ impl StructureKernel for ModalKernel {
         std::mem::swap(&mut self.eta, &mut self.eta_next);
     }
     fn energies(&self) -> Energies {
-        // Four lanes of partial sums in a fixed order: vectorised and still deterministic.
-        // Whole chunks as arrays, so that the loop is four wide; the tail goes to the first lanes.
+        // Four lanes of partial sums in a fixed order, deterministic: whole chunks of four as
+        // arrays (so the loop is vectorised), then the tail into the first lanes.
         let (mut kinetic, mut strain) = ([0.0f64; 4], [0.0f64; 4]);
         let mut add = |eta: &[f64], prev: &[f64], omega2: &[f64]| {
             for j in 0..eta.len() {
