@@ -12,13 +12,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result};
 
-use crate::dynamics::{self, SimulationOutput};
+use crate::dynamics::Simulation;
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
 use crate::io::plots::{
     CampbellData, CasingMode, ImpellerBranch, campbell_diagram, write_sweep_plots,
 };
-use crate::io::timeseries::{self, Column};
+use crate::io::timeseries::TimeSeriesWriter;
 use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::{
     MergeSummary, RunOptions, RunSummary, default_output_dir, load_records, load_spec, merge,
@@ -157,7 +157,8 @@ pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result
     let (case, casing, _) = sim.case_for_job(job)?;
     let cancel = Arc::new(AtomicBool::new(false));
     cancel_on_ctrl_c(cancel.clone());
-    let out = dynamics::simulate(&case, sim.impeller(), &casing, Some(&cancel))?;
+    // Every check of the case runs before the output directory is made.
+    let simulation = Simulation::new(&case, sim.impeller(), &casing)?;
     let dir = output.map_or_else(
         || {
             PathBuf::from("results")
@@ -166,7 +167,9 @@ pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result
         },
         Path::to_path_buf,
     );
-    timeseries::write(&dir.join("timeseries.parquet"), &timeseries_columns(&out))?;
+    let mut series = TimeSeriesWriter::create(&dir.join("timeseries.parquet"))?;
+    let out = simulation.run(&mut series, Some(&cancel))?;
+    series.finish()?;
     let summary = serde_json::json!({
         "job_id": job.id,
         "case": case,
@@ -180,7 +183,7 @@ pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result
         "max_residual_penetration_m": out.max_residual_penetration,
         "loop_seconds": out.loop_seconds,
     });
-    rom_file::write_atomic(
+    crate::io::atomic::write_atomic(
         &dir.join("summary.json"),
         serde_json::to_string_pretty(&summary)?.as_bytes(),
     )?;
@@ -195,62 +198,6 @@ pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result
         dir.display()
     );
     Ok(dir)
-}
-
-/// The probes of a simulation as named columns (units in the names).
-pub fn timeseries_columns(out: &SimulationOutput) -> Vec<Column> {
-    let mut cols = vec![Column {
-        name: "time_s".into(),
-        unit: "s",
-        values: out.time.clone(),
-    }];
-    let mut per = |prefix: &str, suffix: &str, unit: &'static str, series: &[Vec<f64>]| {
-        for (i, v) in series.iter().enumerate() {
-            cols.push(Column {
-                name: format!("{prefix}{i}_{suffix}"),
-                unit,
-                values: v.clone(),
-            });
-        }
-    };
-    per("blade", "le_radial_m", "m", &out.blade_le_radial);
-    per("blade", "te_radial_m", "m", &out.blade_te_radial);
-    per("casing_probe", "radial_m", "m", &out.casing_radial);
-    per("blade", "normal_force_n", "N", &out.blade_normal_force);
-    per(
-        "blade",
-        "tangential_force_n",
-        "N",
-        &out.blade_tangential_force,
-    );
-    per(
-        "impeller_nd",
-        "strain_energy_j",
-        "J",
-        &out.impeller_nd_strain_energy,
-    );
-    let scalars: [(&str, &'static str, &Vec<f64>); 6] = [
-        ("min_gap_m", "m", &out.min_gap),
-        ("residual_penetration_m", "m", &out.residual_penetration),
-        (
-            "impeller_kinetic_energy_j",
-            "J",
-            &out.impeller_energy.kinetic,
-        ),
-        ("impeller_strain_energy_j", "J", &out.impeller_energy.strain),
-        ("casing_kinetic_energy_j", "J", &out.casing_energy.kinetic),
-        ("casing_strain_energy_j", "J", &out.casing_energy.strain),
-    ];
-    for (name, unit, values) in scalars {
-        if values.len() == out.time.len() {
-            cols.push(Column {
-                name: name.into(),
-                unit,
-                values: values.clone(),
-            });
-        }
-    }
-    cols
 }
 
 /// `rubscan plan`: the jobs of a sweep with their resolved parameters and the work estimate.

@@ -415,6 +415,43 @@ impl GapBounds {
         Ok(projected)
     }
 
+    /// The smallest gap (m) of all nodes, given `min_gap`, the smallest gap of the nodes the
+    /// last [`GapBounds::project_near`] projected: the nodes it skipped whose bound is below
+    /// the running minimum are projected too, nearest first, from their extrapolated warm
+    /// starts, into scratch. Nothing that a later call reads changes (warm starts, bounds,
+    /// trends, `out`): a probe, so that sampling the minimum gap never changes the states.
+    pub fn exact_min_gap(
+        &mut self,
+        spline: &CasingSpline,
+        q: &[Vector3<f64>],
+        xs: &[Vector3<f64>],
+        warm: &[Option<SurfaceParam>],
+        eps_nr: f64,
+        mut min_gap: f64,
+    ) -> Result<f64, NodeProjectionError> {
+        let n = spline.n_sectors() as f64;
+        self.far.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        for &(bound, node) in &self.far {
+            if bound >= min_gap {
+                break;
+            }
+            let x = &xs[node];
+            let consecutive = self.last_call[node] + 1 == self.calls;
+            let mut start = warm[node].map(|p| {
+                let (du, dv) = self.step_guess(node, x, consecutive);
+                to_param(
+                    spline,
+                    (p.i as f64 + p.u + du).rem_euclid(n),
+                    p.j as f64 + p.v + dv,
+                )
+            });
+            let mut out = Projection::default();
+            project_node(spline, q, node, x, &mut start, eps_nr, &mut out)?;
+            min_gap = min_gap.min(out.gap);
+        }
+        Ok(min_gap)
+    }
+
     /// Projects node `node` at `x` from its extrapolated warm start and records its bound.
     #[allow(clippy::too_many_arguments)]
     fn project_one(

@@ -7,7 +7,8 @@
 //! - [`kernel`]: the two interchangeable linear-algebra kernels ([`modal`] fast, [`dense`] reference);
 //! - [`contact_solve`]: contact rows, `W = G A⁻¹ Fᵀ`, active-set solve;
 //! - [`scenario`]: the case definition (speed, friction, casing load, clearances);
-//! - [`simulate`]: the time loop; [`probes`]: the recorded output;
+//! - [`simulate`]: the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
+//!   [`recorder`]: what a sample step hands out and who keeps it; [`probes`]: the run's output;
 //! - [`abradable`]: the abradable coating's elastoplastic elements;
 //! - [`synthetic`]: synthetic ROMs (test and benchmark fixture); [`bench`]: time-step benchmark.
 
@@ -19,14 +20,15 @@ pub mod kernel;
 pub mod modal;
 pub mod numerics;
 pub mod probes;
+pub mod recorder;
 pub mod scenario;
 pub mod simulate;
 pub mod structure;
 pub mod synthetic;
 
 pub use numerics::{KernelChoice, Numerics};
-pub use probes::SimulationOutput;
+pub use probes::{RunSummary, SimulationOutput};
 pub use scenario::{
     Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad, RigidCasing, RigidShape,
 };
-pub use simulate::{SimError, simulate};
+pub use simulate::{SimError, Simulation, simulate};

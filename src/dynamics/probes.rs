@@ -168,3 +168,25 @@ impl StageClock {
         } += dt;
     }
 }
+/// Scalar results of a run (the series go to the [`Recorder`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunSummary {
+    /// Time step h (s), stability limit 2/ω_max (s), steps per revolution at Ω.
+    pub time_step: f64,
+    pub stability_limit: f64,
+    pub steps_per_revolution: f64,
+    /// Steps, steps with at least one contact candidate, (step, node) pairs with a positive
+    /// multiplier.
+    pub n_steps: usize,
+    pub contact_steps: usize,
+    pub active_contacts: usize,
+    /// Largest residual penetration (m, over the sample steps) and largest |blade-tip radial
+    /// displacement| (m, over every step).
+    pub max_residual_penetration: f64,
+    pub max_blade_radial: f64,
+    /// Wall-clock time of the stepping loop (s) and its split by stage.
+    pub loop_seconds: f64,
+    pub stage_seconds: StageSeconds,
+    /// The coating's final state (`None` without a coating).
+    pub coating: Option<CoatingOutput>,
+}

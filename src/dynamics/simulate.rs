@@ -1,7 +1,12 @@
-//! The time loop (paper Fig. 4): predict both structures, rebuild the casing spline from the
-//! predicted casing contact nodes (the fast kernel gives its control points directly, see
-//! `CasingFrames`), project every blade-tip node, and when some gap is negative solve the
-//! contact problem and correct both structures.
+//! The time loop (paper Figs. 4 and 11) as a [`Simulation`]: built once from a case by
+//! [`Simulation::new`] (the stability limit, both kernels, the casing surface, the load), then
+//! advanced by [`Simulation::step`], one method per box of the flowchart:
+//! [`predict`](Simulation::predict) both structures, rebuild the
+//! [`casing surface`](Simulation::casing_surface) from the predicted casing, [`project`](Simulation::project)
+//! every blade-tip node and take its gap, apply the abradable [`coating`](Simulation::coating)
+//! (Fig. 11), and when some gap is negative [`solve the contact`](Simulation::contact_solve)
+//! and [`correct`](Simulation::correct) both structures; then [`advance`](Simulation::advance)
+//! and [`record`](Simulation::record) a sample for the caller's [`Recorder`].
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
@@ -14,7 +19,8 @@ use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
 use crate::dynamics::numerics::KernelChoice;
-use crate::dynamics::probes::{CoatingOutput, SimulationOutput, Stage, StageClock};
+use crate::dynamics::probes::{CoatingOutput, RunSummary, SimulationOutput, Stage, StageClock};
+use crate::dynamics::recorder::{CoatingSample, RecordError, Recorder, Sample, SeriesRecorder};
 use crate::dynamics::scenario::{Case, CasingModel, CoatingCase};
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::model::rom::CyclicRom;
@@ -52,6 +58,8 @@ pub enum SimError {
     Cancelled { time: f64 },
     #[error("abradable coating: {0}")]
     Coating(#[from] AbradableError),
+    #[error("recording the output: {0}")]
+    Record(RecordError),
 }
 
 /// Radial unit vector of a reference position (m) in its own frame.
@@ -61,6 +69,14 @@ fn radial(p: &[f64; 3]) -> Vector3<f64> {
         Vector3::new(p[0] / r, p[1] / r, 0.0)
     } else {
         Vector3::new(1.0, 0.0, 0.0)
+    }
+}
+
+/// The error of a failed closest-point projection at time `time` (s).
+fn projection_failed(time: f64) -> impl Fn(NodeProjectionError) -> SimError {
+    move |e| SimError::Projection {
+        time,
+        reason: e.to_string(),
     }
 }
 
@@ -78,15 +94,372 @@ struct Cand {
     param: SurfaceParam,
 }
 
-/// Simulates `case` for `impeller` rotating inside `casing` (paper Fig. 4). Checks the stability
-/// limit, builds both kernels, runs the explicit loop, and records the probes of
-/// [`SimulationOutput`]. `cancel` is polled every 1024 steps.
-pub fn simulate(
+/// The linear-algebra kernel of one structure with the flexibility the contact solve reads:
+/// the fast modal kernel with its precomputed table `T`, or the dense reference with its
+/// boundary flexibility `A⁻¹` restricted to the boundary DOFs.
+enum Kernel<T> {
+    Modal {
+        kernel: ModalKernel,
+        table: T,
+    },
+    Dense {
+        kernel: DenseKernel,
+        flexibility: Mat<f64>,
+    },
+}
+
+impl<T> Kernel<T> {
+    /// The kernel of `choice` for `st` at step `h`; `table` builds the fast kernel's table.
+    fn new(
+        st: &Structure,
+        h: f64,
+        choice: KernelChoice,
+        table: impl FnOnce(&mut ModalKernel) -> T,
+    ) -> Result<Self, SimError> {
+        Ok(match choice {
+            KernelChoice::Fast => {
+                let mut kernel = ModalKernel::new(st, h)?;
+                let table = table(&mut kernel);
+                Kernel::Modal { kernel, table }
+            }
+            KernelChoice::DenseReference => {
+                let kernel = DenseKernel::new(st, h);
+                let flexibility = kernel.boundary_flexibility().to_owned();
+                Kernel::Dense {
+                    kernel,
+                    flexibility,
+                }
+            }
+        })
+    }
+
+    fn get(&self) -> &dyn StructureKernel {
+        match self {
+            Kernel::Modal { kernel, .. } => kernel,
+            Kernel::Dense { kernel, .. } => kernel,
+        }
+    }
+
+    fn get_mut(&mut self) -> &mut dyn StructureKernel {
+        match self {
+            Kernel::Modal { kernel, .. } => kernel,
+            Kernel::Dense { kernel, .. } => kernel,
+        }
+    }
+}
+
+/// The impeller in the time loop: its kernel and the blade-tip nodes (paper §2.2).
+struct Blades {
+    kernel: Kernel<NodeFlexTable>,
+    /// Blades N_b, tip nodes per blade n_c, boundary DOFs per blade 3 n_c.
+    n_blades: usize,
+    n_contact: usize,
+    nb: usize,
+    /// Contact row of each tip node, and the number of rows.
+    rows: Vec<usize>,
+    n_rows: usize,
+    /// Radial unit vector and reference position (m, clearance offsets applied) of each tip
+    /// node of blade 0; the leading- and trailing-edge nodes.
+    radial: Vec<Vector3<f64>>,
+    reference: Vec<Vector3<f64>>,
+    le: usize,
+    te: usize,
+    /// `R(θ_s)` per blade.
+    rot: Vec<Matrix3<f64>>,
+    /// Tip nodes Γ (m, fixed frame) of this step and of the previous one.
+    nodes: Vec<Vector3<f64>>,
+    nodes_prev: Vec<Vector3<f64>>,
+}
+
+impl Blades {
+    fn new(case: &Case, impeller: &CyclicRom, st: &Structure) -> Result<Self, SimError> {
+        let n_blades = impeller.n_sectors;
+        let n_contact = impeller.n_contact();
+        let rows: Vec<usize> = impeller.contact_nodes.iter().map(|c| c.row).collect();
+        let n_rows = rows.iter().max().map_or(0, |r| r + 1);
+        if !case.clearance_offset.is_empty() && case.clearance_offset.len() != n_rows {
+            return Err(SimError::InvalidCase(format!(
+                "clearance_offset has {} entries, the impeller has {n_rows} contact rows",
+                case.clearance_offset.len()
+            )));
+        }
+        let radial: Vec<Vector3<f64>> = impeller
+            .contact_nodes
+            .iter()
+            .map(|c| radial(&c.position))
+            .collect();
+        let reference: Vec<Vector3<f64>> = impeller
+            .contact_nodes
+            .iter()
+            .enumerate()
+            .map(|(j, c)| {
+                let off = case.clearance_offset.get(c.row).copied().unwrap_or(0.0);
+                Vector3::from(c.position) + radial[j] * off
+            })
+            .collect();
+        let le = (0..n_contact).min_by_key(|&j| rows[j]).unwrap_or(0);
+        let te = (0..n_contact).max_by_key(|&j| rows[j]).unwrap_or(0);
+        let alpha = 2.0 * PI / n_blades as f64;
+        let rot: Vec<Matrix3<f64>> = (0..n_blades).map(|s| rot_z(s as f64 * alpha)).collect();
+        let kernel = Kernel::new(st, case.numerics.time_step, case.numerics.kernel, |k| {
+            NodeFlexTable::build(k)
+        })?;
+        let nn = n_blades * n_contact;
+        let mut nodes_prev = vec![Vector3::zeros(); nn];
+        for s in 0..n_blades {
+            for j in 0..n_contact {
+                nodes_prev[s * n_contact + j] = rot[s] * reference[j];
+            }
+        }
+        Ok(Self {
+            kernel,
+            n_blades,
+            n_contact,
+            nb: 3 * n_contact,
+            rows,
+            n_rows,
+            radial,
+            reference,
+            le,
+            te,
+            rot,
+            nodes: vec![Vector3::zeros(); nn],
+            nodes_prev,
+        })
+    }
+
+    /// Tip nodes in the fixed frame, `Γ = R(Ωt) R(θ_s)(X_j + u_(s,j))`, of the current state.
+    fn place(&mut self, r_om: &Matrix3<f64>) {
+        fill_blade_nodes(
+            self.kernel.get().boundary(),
+            r_om,
+            &self.rot,
+            &self.reference,
+            self.n_contact,
+            &mut self.nodes,
+        );
+    }
+
+    /// Radial displacement (m) of tip node `j` of blade `s` in the current state.
+    fn radial_displacement(&self, s: usize, j: usize) -> f64 {
+        self.radial[j].dot(&node_disp(self.kernel.get().boundary(), s, self.nb, j))
+    }
+}
+
+/// The flexible casing's kernel, frames and probe buffers.
+struct FlexibleCasing {
+    kernel: Kernel<ControlFlexTable>,
+    frames: CasingFrames,
+    /// Radial unit vector of each contact node of sector 0.
+    radial: Vec<Vector3<f64>>,
+    /// Contact-node displacements (probes) and corrected channels (residual check), scratch.
+    nodes: Vec<f64>,
+    corrected: Vec<f64>,
+}
+
+/// The casing in the time loop: its spline surface (eqs. 5–13) and, when flexible, its kernel.
+struct CasingSide {
+    spline: CasingSpline,
+    n_sectors: usize,
+    rows: usize,
+    flexible: Option<FlexibleCasing>,
+    /// Control points (m, global) of this step, data points of the spline solve, and the
+    /// control points of the corrected surface (residual check).
+    q: Vec<Vector3<f64>>,
+    pnodes: Vec<Vector3<f64>>,
+    q_corrected: Vec<Vector3<f64>>,
+    /// The surface at the end of the previous step (friction increments, eq. 15).
+    past: PastSurface,
+    /// Largest radius (m) of the casing at rest (scale of the residual tolerance).
+    radius_scale: f64,
+}
+
+impl CasingSide {
+    fn new(case: &Case, casing: &CasingModel, st: Option<&Structure>) -> Result<Self, SimError> {
+        let (n_sectors, rows, rest_rows, rest_nodes) = match casing {
+            CasingModel::Flexible(rom) => {
+                let m = rom.n_contact();
+                for (j, c) in rom.contact_nodes.iter().enumerate() {
+                    if c.row != j {
+                        return Err(SimError::InvalidCase(format!(
+                            "casing contact node {j} has row {}: casing nodes must be ordered by row 0..M",
+                            c.row
+                        )));
+                    }
+                }
+                let a = 2.0 * PI / rom.n_sectors as f64;
+                let y: Vec<Vector3<f64>> = rom
+                    .contact_nodes
+                    .iter()
+                    .map(|c| Vector3::from(c.position))
+                    .collect();
+                let mut rest = Vec::with_capacity(rom.n_sectors * m);
+                for i in 0..rom.n_sectors {
+                    for yj in &y {
+                        rest.push(rot_z(i as f64 * a) * yj);
+                    }
+                }
+                (rom.n_sectors, m, y, rest)
+            }
+            CasingModel::Rigid(r) => {
+                let pts = r.data_points().map_err(SimError::InvalidCase)?;
+                (r.n_sectors, r.meridian.len(), vec![], pts)
+            }
+        };
+        let spline_err = |e: crate::contact::SplineError| SimError::Spline(e.to_string());
+        let mut spline = CasingSpline::new(n_sectors, rows).map_err(spline_err)?;
+        spline.orient_toward_axis(&rest_nodes).map_err(spline_err)?;
+        let mut q = vec![Vector3::zeros(); spline.n_control()];
+        spline
+            .control_points(&rest_nodes, &mut q)
+            .map_err(spline_err)?;
+        let alpha = 2.0 * PI / n_sectors as f64;
+        let flexible = match (casing, st) {
+            (CasingModel::Flexible(rom), Some(st)) => {
+                let kernel = Kernel::new(st, case.numerics.time_step, case.numerics.kernel, |k| {
+                    ControlFlexTable::build(k, &spline)
+                })?;
+                Some(FlexibleCasing {
+                    kernel,
+                    frames: CasingFrames {
+                        surface: false,
+                        rot: (0..n_sectors).map(|i| rot_z(i as f64 * alpha)).collect(),
+                        rest_rows,
+                        q_rest: q.clone(),
+                    },
+                    radial: rom
+                        .contact_nodes
+                        .iter()
+                        .map(|c| radial(&c.position))
+                        .collect(),
+                    nodes: vec![0.0; n_sectors * 3 * rows],
+                    corrected: vec![],
+                })
+            }
+            _ => None,
+        };
+        for p in &case.casing_probes {
+            if flexible.is_none() || p[0] >= n_sectors || p[1] >= rows {
+                return Err(SimError::InvalidCase(format!(
+                    "casing probe {p:?} is not a contact node of a flexible casing"
+                )));
+            }
+        }
+        let radius_scale = rest_nodes.iter().map(|p| p.xy().norm()).fold(0.0, f64::max);
+        Ok(Self {
+            past: PastSurface {
+                q: q.clone(),
+                loads: vec![],
+                touched: vec![],
+            },
+            q_corrected: q.clone(),
+            spline,
+            n_sectors,
+            rows,
+            flexible,
+            q,
+            pnodes: rest_nodes,
+            radius_scale,
+        })
+    }
+
+    /// The fast casing kernel takes the spline into its modal basis (no spline solve per
+    /// step); done after everything that uses the contact-node channels.
+    fn fold_spline(&mut self) -> Result<(), SimError> {
+        if let Some(FlexibleCasing {
+            kernel: Kernel::Modal { kernel, .. },
+            frames,
+            corrected,
+            ..
+        }) = self.flexible.as_mut()
+        {
+            frames.surface = kernel
+                .map_to_surface(&self.spline)
+                .map_err(SimError::Spline)?;
+            *corrected = vec![0.0; kernel.n_sectors() * kernel.n_boundary()];
+        }
+        Ok(())
+    }
+
+    /// The flexibility table of the fast casing kernel, through which the Lagrange loads of a
+    /// step act on the surface without refreshing the kernel's channels.
+    fn lazy_table(&self) -> Option<&ControlFlexTable> {
+        match self.flexible.as_ref()?.kernel {
+            Kernel::Modal { ref table, .. } => Some(table),
+            Kernel::Dense { .. } => None,
+        }
+    }
+
+    /// Control points `q` of the current casing state (a rigid casing's never change).
+    fn refresh(&mut self) -> Result<(), SimError> {
+        if let Some(f) = &self.flexible {
+            f.frames.control_points(
+                &self.spline,
+                f.kernel.get().boundary(),
+                &mut self.pnodes,
+                &mut self.q,
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Scales the n-lobe casing load (paper §5) to its static displacement and hands it to the
+/// casing kernel: the force on node `(i, M−1)` is `−F cos(n θ_i) e_r`.
+fn set_casing_load(
     case: &Case,
-    impeller: &CyclicRom,
-    casing: &CasingModel,
-    cancel: Option<&AtomicBool>,
-) -> Result<SimulationOutput, SimError> {
+    st: Option<&Structure>,
+    casing: &mut CasingSide,
+) -> Result<(), SimError> {
+    let Some(load) = &case.load else {
+        return Ok(());
+    };
+    let bad = |m: String| Err(SimError::InvalidCase(m));
+    let (Some(stc), Some(fc)) = (st, casing.flexible.as_mut()) else {
+        return bad("a casing load needs a flexible casing".into());
+    };
+    if load.lobes == 0
+        || !(load.static_displacement.is_finite())
+        || load.ramp_time.is_nan()
+        || load.ramp_time <= 0.0
+        || load.hold_time.is_nan()
+        || load.hold_time < 0.0
+    {
+        return bad(format!(
+            "load {load:?}: lobes ≥ 1, finite δ, ramp_time > 0 and hold_time ≥ 0 required"
+        ));
+    }
+    let (ncs, mc) = (casing.n_sectors, casing.rows);
+    let (nbc, te_c, alpha) = (3 * mc, mc - 1, 2.0 * PI / ncs as f64);
+    let er = fc.radial[te_c];
+    let mut pat = vec![0.0; ncs * nbc];
+    for i in 0..ncs {
+        let f = -er * (load.lobes as f64 * i as f64 * alpha).cos();
+        pat[i * nbc + 3 * te_c..i * nbc + 3 * te_c + 3].copy_from_slice(f.as_slice());
+    }
+    let mut stat = vec![0.0; ncs * nbc];
+    let mut mk = ModalKernel::new(stc, case.numerics.time_step)?;
+    mk.static_boundary(&pat, &mut stat)
+        .map_err(SimError::InvalidCase)?;
+    let peak = (0..ncs)
+        .map(|i| -er.dot(&node_disp(&stat, i, nbc, te_c)))
+        .fold(0.0f64, f64::max);
+    if peak.is_nan() || peak <= 0.0 {
+        return bad("the casing load produces no inward static displacement".into());
+    }
+    let scale = load.static_displacement / peak;
+    pat.iter_mut().for_each(|x| *x *= scale);
+    fc.kernel.get_mut().set_load_pattern(&pat);
+    Ok(())
+}
+
+/// Checks the case's scalars and the explicit stability limit `h < 2/ω_max` of both
+/// structures. Returns the limit (s) and the steps per revolution.
+fn check_stability(
+    case: &Case,
+    st_i: &Structure,
+    st_c: Option<&Structure>,
+) -> Result<(f64, f64), SimError> {
     let num = &case.numerics;
     num.validate().map_err(SimError::InvalidCase)?;
     let bad = |m: String| Err(SimError::InvalidCase(m));
@@ -100,20 +473,12 @@ pub fn simulate(
         return bad(format!("friction = {} must be ≥ 0", case.friction));
     }
     let h = num.time_step;
-    let mu = case.friction;
-
-    // Structures and the stability limit.
-    let st_i = Structure::new(impeller, case.omega)?;
-    let st_c = match casing {
-        CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?),
-        CasingModel::Rigid(_) => None,
-    };
     let (mut limit, mut omega_max, mut which) = (
         st_i.stability_limit(),
         st_i.omega_max,
         format!("impeller `{}`", st_i.name),
     );
-    if let Some(c) = &st_c
+    if let Some(c) = st_c
         && c.stability_limit() < limit
     {
         (limit, omega_max, which) = (
@@ -146,359 +511,328 @@ pub fn simulate(
             rev,
         });
     }
+    Ok((limit, steps_per_rev))
+}
 
-    // Impeller geometry.
-    let nbl = impeller.n_sectors;
-    let nci = impeller.n_contact();
-    let nbi = 3 * nci;
-    let rows_i: Vec<usize> = impeller.contact_nodes.iter().map(|c| c.row).collect();
-    let n_rows = rows_i.iter().max().map_or(0, |r| r + 1);
-    if !case.clearance_offset.is_empty() && case.clearance_offset.len() != n_rows {
-        return bad(format!(
-            "clearance_offset has {} entries, the impeller has {} contact rows",
-            case.clearance_offset.len(),
-            n_rows
-        ));
-    }
-    let er_i: Vec<Vector3<f64>> = impeller
-        .contact_nodes
-        .iter()
-        .map(|c| radial(&c.position))
-        .collect();
-    let x_i: Vec<Vector3<f64>> = impeller
-        .contact_nodes
-        .iter()
-        .enumerate()
-        .map(|(j, c)| {
-            let off = case.clearance_offset.get(c.row).copied().unwrap_or(0.0);
-            Vector3::from(c.position) + er_i[j] * off
+/// The closest points of the blade-tip nodes on the casing and their gaps (paper §3.1).
+struct Projector {
+    bounds: GapBounds,
+    warm: Vec<Option<SurfaceParam>>,
+    proj: Vec<Projection>,
+    /// Newton–Raphson tolerance ε_NR.
+    eps: f64,
+    /// Nodes provably farther than this from the casing are not projected (m): a rub starts
+    /// at gap 0, a coating reacts from its thickness on.
+    margin: f64,
+    /// Scratch of the residual re-projection.
+    res_proj: Vec<Projection>,
+    res_warm: Vec<Option<SurfaceParam>>,
+}
+
+/// The contact problem of a step (eq. 18) and its buffers, allocated once.
+struct ContactProblem {
+    cands: Vec<Cand>,
+    w: Vec<f64>,
+    d: Vec<f64>,
+    lambda: Vec<f64>,
+    active: Vec<usize>,
+    lu: Vec<f64>,
+    rhs: Vec<f64>,
+    /// Control-point flexibility blocks `V(k, l)` of the candidate pairs (fast casing).
+    vblk: Vec<Matrix3<f64>>,
+    /// Boundary forces (N, sector-major) on the impeller and the casing.
+    fi: Vec<f64>,
+    fc: Vec<f64>,
+    wu: Vec<f64>,
+    wv: Vec<f64>,
+    /// Lagrange loads on the casing surface, and the casing points the candidates touch after
+    /// the correction (the next step's [`PastSurface`]).
+    loads: Vec<(SurfaceParam, Vector3<f64>)>,
+    touched: Vec<Option<(SurfaceParam, Vector3<f64>)>>,
+    /// Normal and friction force per blade (N) of the step.
+    force_n: Vec<f64>,
+    force_t: Vec<f64>,
+}
+
+/// One simulation of a case (paper Fig. 4), stepped by [`Simulation::step`].
+pub struct Simulation<'a> {
+    case: &'a Case,
+    blades: Blades,
+    casing: CasingSide,
+    projector: Projector,
+    contact: ContactProblem,
+    coating: Option<CoatingStage>,
+    summary: RunSummary,
+    clock: StageClock,
+    /// Steps done; this step's end time t_{n+1} (s), its rotation R(Ω t_{n+1}), whether it is
+    /// a sample step, its minimum predicted gap (m) and residual penetration (m).
+    steps_done: usize,
+    t1: f64,
+    r_om: Matrix3<f64>,
+    sample_step: bool,
+    min_gap: f64,
+    residual: f64,
+    /// Probe buffers of a sample (per blade, per casing probe, per nodal diameter).
+    le: Vec<f64>,
+    te: Vec<f64>,
+    casing_radial: Vec<f64>,
+    nd_energy: Vec<f64>,
+}
+
+impl<'a> Simulation<'a> {
+    /// Builds the simulation of `case` for `impeller` rotating inside `casing`: checks the
+    /// case and the stability limit, builds both kernels (and their flexibility tables), the
+    /// casing spline, the casing load and the coating.
+    pub fn new(
+        case: &'a Case,
+        impeller: &CyclicRom,
+        casing: &CasingModel,
+    ) -> Result<Self, SimError> {
+        let st_i = Structure::new(impeller, case.omega)?;
+        let st_c = match casing {
+            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?),
+            CasingModel::Rigid(_) => None,
+        };
+        let (limit, steps_per_revolution) = check_stability(case, &st_i, st_c.as_ref())?;
+        let h = case.numerics.time_step;
+        let mut blades = Blades::new(case, impeller, &st_i)?;
+        let mut casing = CasingSide::new(case, casing, st_c.as_ref())?;
+        set_casing_load(case, st_c.as_ref(), &mut casing)?;
+        set_initial_velocities(case, &st_i, st_c.as_ref(), &mut blades, &mut casing)?;
+        let nn = blades.n_blades * blades.n_contact;
+        casing.past.touched = vec![None; nn];
+        let coating = match &case.coating {
+            Some(cc) => {
+                let mut cs = CoatingStage::new(cc, impeller, &blades, case.friction, &casing)?;
+                cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;
+                cs.check_stability(&mut blades, casing.flexible.as_mut())?;
+                Some(cs)
+            }
+            None => None,
+        };
+        casing.fold_spline()?;
+        let projector = Projector {
+            bounds: GapBounds::new(nn),
+            warm: vec![None; nn],
+            proj: vec![Projection::default(); nn],
+            eps: case.numerics.newton_tolerance,
+            margin: case.coating.as_ref().map_or(0.0, |c| c.material.thickness),
+            res_proj: vec![Projection::default(); 1],
+            res_warm: vec![None; 1],
+        };
+        let (ncs, nbc) = (casing.n_sectors, 3 * casing.rows);
+        let contact = ContactProblem {
+            cands: Vec::with_capacity(nn),
+            w: vec![0.0; nn * nn],
+            d: vec![0.0; nn],
+            lambda: vec![0.0; nn],
+            active: Vec::with_capacity(nn),
+            lu: Vec::with_capacity(nn * nn),
+            rhs: Vec::with_capacity(nn),
+            vblk: vec![
+                Matrix3::zeros();
+                if casing.lazy_table().is_some() {
+                    nn * nn
+                } else {
+                    0
+                }
+            ],
+            fi: vec![0.0; blades.n_blades * blades.nb],
+            fc: vec![0.0; ncs * nbc],
+            wu: vec![0.0; ncs],
+            wv: vec![0.0; casing.rows],
+            loads: Vec::with_capacity(nn),
+            touched: vec![None; nn],
+            force_n: vec![0.0; blades.n_blades],
+            force_t: vec![0.0; blades.n_blades],
+        };
+        let n_blades = blades.n_blades;
+        let n_nd = st_i.blocks.len();
+        Ok(Self {
+            summary: RunSummary {
+                time_step: h,
+                stability_limit: limit,
+                steps_per_revolution,
+                n_steps: (case.duration / h).round() as usize,
+                ..Default::default()
+            },
+            case,
+            blades,
+            casing,
+            projector,
+            contact,
+            coating,
+            clock: StageClock::new(),
+            steps_done: 0,
+            t1: 0.0,
+            r_om: Matrix3::identity(),
+            sample_step: false,
+            min_gap: f64::INFINITY,
+            residual: 0.0,
+            le: vec![0.0; n_blades],
+            te: vec![0.0; n_blades],
+            casing_radial: vec![0.0; case.casing_probes.len()],
+            nd_energy: vec![0.0; n_nd],
         })
-        .collect();
-    let le = (0..nci).min_by_key(|&j| rows_i[j]).unwrap_or(0);
-    let te = (0..nci).max_by_key(|&j| rows_i[j]).unwrap_or(0);
-    let alpha_i = 2.0 * PI / nbl as f64;
-    let rot_i: Vec<Matrix3<f64>> = (0..nbl).map(|s| rot_z(s as f64 * alpha_i)).collect();
+    }
 
-    // Casing geometry and spline.
-    let (ncs, mc, y_c, rest_nodes) = match casing {
-        CasingModel::Flexible(rom) => {
-            let m = rom.n_contact();
-            for (j, c) in rom.contact_nodes.iter().enumerate() {
-                if c.row != j {
-                    return bad(format!(
-                        "casing contact node {j} has row {}: casing nodes must be ordered by row 0..M",
-                        c.row
-                    ));
-                }
+    /// Number of steps of the case, `round(duration / h)`.
+    pub fn n_steps(&self) -> usize {
+        self.summary.n_steps
+    }
+
+    /// Runs every step, polling `cancel` every 1024 steps; hands each sample to `recorder`.
+    pub fn run(
+        mut self,
+        recorder: &mut dyn Recorder,
+        cancel: Option<&AtomicBool>,
+    ) -> Result<RunSummary, SimError> {
+        let start = std::time::Instant::now();
+        self.clock = StageClock::new();
+        while self.steps_done < self.summary.n_steps {
+            if self.steps_done % 1024 == 0
+                && let Some(c) = cancel
+                && c.load(Ordering::Relaxed)
+            {
+                return Err(SimError::Cancelled {
+                    time: self.steps_done as f64 * self.case.numerics.time_step,
+                });
             }
-            let a = 2.0 * PI / rom.n_sectors as f64;
-            let y: Vec<Vector3<f64>> = rom
-                .contact_nodes
-                .iter()
-                .map(|c| Vector3::from(c.position))
-                .collect();
-            let mut rest = Vec::with_capacity(rom.n_sectors * m);
-            for i in 0..rom.n_sectors {
-                for yj in &y {
-                    rest.push(rot_z(i as f64 * a) * yj);
-                }
-            }
-            (rom.n_sectors, m, y, rest)
+            self.step(recorder)?;
         }
-        CasingModel::Rigid(r) => {
-            let pts = r.data_points().map_err(SimError::InvalidCase)?;
-            (r.n_sectors, r.meridian.len(), vec![], pts)
-        }
-    };
-    let mut spline = CasingSpline::new(ncs, mc).map_err(|e| SimError::Spline(e.to_string()))?;
-    spline
-        .orient_toward_axis(&rest_nodes)
-        .map_err(|e| SimError::Spline(e.to_string()))?;
-    let alpha_c = 2.0 * PI / ncs as f64;
-    let rot_c: Vec<Matrix3<f64>> = (0..ncs).map(|i| rot_z(i as f64 * alpha_c)).collect();
-    let er_c: Vec<Vector3<f64>> = match casing {
-        CasingModel::Flexible(rom) => rom
-            .contact_nodes
-            .iter()
-            .map(|c| radial(&c.position))
-            .collect(),
-        CasingModel::Rigid(_) => vec![],
-    };
-    for p in &case.casing_probes {
-        if st_c.is_none() || p[0] >= ncs || p[1] >= mc {
-            return bad(format!(
-                "casing probe {p:?} is not a contact node of a flexible casing"
-            ));
-        }
+        self.summary.loop_seconds = start.elapsed().as_secs_f64();
+        self.summary.stage_seconds = self.clock.seconds;
+        self.summary.coating = self.coating.map(CoatingStage::finish).transpose()?;
+        Ok(self.summary)
     }
 
-    // Kernels and flexibility.
-    let nbc = 3 * mc;
-    let fast = num.kernel == KernelChoice::Fast;
-    let (mut tab_i, mut tab_c, mut hd_i, mut hd_c) = (None, None, None, None);
-    let mut ki: Box<dyn StructureKernel>;
-    let mut kc: Option<Box<dyn StructureKernel>> = None;
-    if fast {
-        ki = Box::new(ModalKernel::new(&st_i, h)?);
-        tab_i = Some(NodeFlexTable::build(ki.as_mut()));
-        if let Some(s) = &st_c {
-            let mut k: Box<dyn StructureKernel> = Box::new(ModalKernel::new(s, h)?);
-            tab_c = Some(ControlFlexTable::build(k.as_mut(), &spline));
-            kc = Some(k);
+    /// One time step t_n → t_{n+1} (paper Figs. 4 and 11).
+    pub fn step(&mut self, recorder: &mut dyn Recorder) -> Result<(), SimError> {
+        self.predict();
+        self.casing_surface()?;
+        self.project()?;
+        self.coating()?;
+        self.gaps()?;
+        if !self.contact.cands.is_empty() {
+            self.friction_directions()?;
+            self.contact_solve()?;
+            self.correct()?;
         }
-    } else {
-        let k = DenseKernel::new(&st_i, h);
-        hd_i = Some(k.boundary_flexibility().to_owned());
-        ki = Box::new(k);
-        if let Some(s) = &st_c {
-            let k = DenseKernel::new(s, h);
-            hd_c = Some(k.boundary_flexibility().to_owned());
-            kc = Some(Box::new(k));
-        }
+        self.advance()?;
+        self.record(recorder)
     }
 
-    // Casing load pattern, scaled to the requested static displacement.
-    if let Some(load) = &case.load {
-        let (Some(stc), Some(k)) = (&st_c, kc.as_mut()) else {
-            return bad("a casing load needs a flexible casing".into());
-        };
-        if load.lobes == 0
-            || !(load.static_displacement.is_finite())
-            || load.ramp_time.is_nan()
-            || load.ramp_time <= 0.0
-            || load.hold_time.is_nan()
-            || load.hold_time < 0.0
-        {
-            return bad(format!(
-                "load {load:?}: lobes ≥ 1, finite δ, ramp_time > 0 and hold_time ≥ 0 required"
-            ));
-        }
-        let te_c = mc - 1;
-        let mut pat = vec![0.0; ncs * nbc];
-        for i in 0..ncs {
-            let f = -er_c[te_c] * (load.lobes as f64 * i as f64 * alpha_c).cos();
-            for d in 0..3 {
-                pat[i * nbc + 3 * te_c + d] = f[d];
-            }
-        }
-        let mut stat = vec![0.0; ncs * nbc];
-        let mut mk = ModalKernel::new(stc, h)?;
-        mk.static_boundary(&pat, &mut stat)
-            .map_err(SimError::InvalidCase)?;
-        let peak = (0..ncs)
-            .map(|i| {
-                let u = Vector3::new(
-                    stat[i * nbc + 3 * te_c],
-                    stat[i * nbc + 3 * te_c + 1],
-                    stat[i * nbc + 3 * te_c + 2],
-                );
-                -er_c[te_c].dot(&u)
-            })
-            .fold(0.0f64, f64::max);
-        if peak.is_nan() || peak <= 0.0 {
-            return bad("the casing load produces no inward static displacement".into());
-        }
-        let scale = load.static_displacement / peak;
-        pat.iter_mut().for_each(|x| *x *= scale);
-        k.set_load_pattern(&pat);
-    }
-    if let Some(v) = &case.initial_velocity.impeller {
-        if v.len() != st_i.n_modal {
-            return bad(format!(
-                "initial impeller velocity has {} entries, expected {}",
-                v.len(),
-                st_i.n_modal
-            ));
-        }
-        ki.set_initial_velocity(v);
-    }
-    if let Some(v) = &case.initial_velocity.casing {
-        match (&st_c, kc.as_mut()) {
-            (Some(s), Some(k)) if v.len() == s.n_modal => k.set_initial_velocity(v),
-            _ => {
-                return bad(
-                    "initial casing velocity needs a flexible casing and one entry per DOF".into(),
-                );
-            }
-        }
-    }
-
-    // Buffers (allocated once).
-    let nn = nbl * nci;
-    let mut gam = vec![Vector3::zeros(); nn];
-    let mut gam_prev = vec![Vector3::zeros(); nn];
-    for s in 0..nbl {
-        for j in 0..nci {
-            gam_prev[s * nci + j] = rot_i[s] * x_i[j];
-        }
-    }
-    let mut pnodes = rest_nodes.clone();
-    let mut q = vec![Vector3::zeros(); spline.n_control()];
-    spline
-        .control_points(&pnodes, &mut q)
-        .map_err(|e| SimError::Spline(e.to_string()))?;
-    // The fast kernel corrects the casing without refreshing its channels: the Lagrange loads
-    // of a step then act on the surface through the control-point flexibility.
-    let mut past = PastSurface {
-        q: q.clone(),
-        loads: vec![],
-        flex: tab_c.as_ref(),
-        touched: vec![None; nn],
-    };
-    let mut step_loads = Vec::with_capacity(nn);
-    let mut touched = vec![None; nn];
-    let mut vblk = vec![Matrix3::zeros(); if tab_c.is_some() { nn * nn } else { 0 }];
-    let mut warm: Vec<Option<SurfaceParam>> = vec![None; nn];
-    let mut proj = vec![Projection::default(); nn];
-    // Nodes provably farther than this from the casing are not projected (a rub starts at gap
-    // 0; a coating reacts from its thickness on).
-    let mut gap_bounds = GapBounds::new(nn);
-    let touch_margin = case.coating.as_ref().map_or(0.0, |c| c.material.thickness);
-    let mut cands: Vec<Cand> = Vec::with_capacity(nn);
-    let mut wmat = vec![0.0; nn * nn];
-    let mut dvec = vec![0.0; nn];
-    let mut lam = vec![0.0; nn];
-    let (mut act, mut lu, mut rhs) = (
-        Vec::with_capacity(nn),
-        Vec::with_capacity(nn * nn),
-        Vec::with_capacity(nn),
-    );
-    let mut fi = vec![0.0; nbl * nbi];
-    let mut fc = vec![0.0; ncs * nbc];
-    let (mut wu, mut wv) = (vec![0.0; ncs], vec![0.0; mc]);
-    let mut res_proj = vec![Projection::default(); 1];
-    let mut res_warm = vec![None; 1];
-    let eps = num.newton_tolerance;
-    let kmax_i = st_i.blocks.len();
-    let mut nd_buf = vec![0.0; kmax_i];
-    let mut force_n = vec![0.0; nbl];
-    let mut force_t = vec![0.0; nbl];
-
-    let n_steps = (case.duration / h).round() as usize;
-    let n_samples = n_steps / num.decimation;
-    let ser = |n: usize| vec![Vec::with_capacity(n_samples); n];
-    let mut out = SimulationOutput {
-        blade_le_radial: ser(nbl),
-        blade_te_radial: ser(nbl),
-        casing_radial: ser(case.casing_probes.len()),
-        blade_normal_force: ser(nbl),
-        blade_tangential_force: ser(nbl),
-        impeller_nd_strain_energy: ser(kmax_i),
-        time_step: h,
-        stability_limit: limit,
-        steps_per_revolution: steps_per_rev,
-        n_steps,
-        ..Default::default()
-    };
-    let mut coat = match &case.coating {
-        Some(cc) => {
-            let mut cs = CoatingStage::new(cc, impeller, &rows_i, n_rows, mu, ncs, mc, n_samples)?;
-            cs.out.steps_per_element = steps_per_rev / cc.eta as f64;
-            cs.check_stability(ki.as_mut(), kc.as_deref_mut(), &er_i, &er_c)?;
-            Some(cs)
-        }
-        None => None,
-    };
-    // The fast casing kernel takes the spline into its modal basis (no spline solve per step).
-    let surface = match kc.as_mut() {
-        Some(k) if fast => k.map_to_surface(&spline).map_err(SimError::Spline)?,
-        _ => false,
-    };
-    let casing_frames = CasingFrames {
-        surface,
-        rot: rot_c.clone(),
-        rest_rows: y_c.clone(),
-        q_rest: q.clone(),
-    };
-    let mut nodes_c = vec![0.0; ncs * nbc];
-    let radius_scale = rest_nodes.iter().map(|p| p.xy().norm()).fold(0.0, f64::max);
-
-    let clock = std::time::Instant::now();
-    let mut stages = StageClock::new();
-    for step in 0..n_steps {
-        let t_n = step as f64 * h;
+    /// Box 1: the predictors `u*_{n+1}` of both structures (the casing under its load).
+    fn predict(&mut self) {
+        let h = self.case.numerics.time_step;
+        let t_n = self.steps_done as f64 * h;
         // The same expression as the next step's t_n (the fused predictor checks its amplitude).
-        let t1 = (step + 1) as f64 * h;
-        if step % 1024 == 0
-            && let Some(c) = cancel
-            && c.load(Ordering::Relaxed)
-        {
-            return Err(SimError::Cancelled { time: t_n });
+        self.t1 = (self.steps_done + 1) as f64 * h;
+        self.r_om = rot_z(self.case.omega * self.t1);
+        self.sample_step = (self.steps_done + 1) % self.case.numerics.decimation == 0;
+        self.blades.kernel.get_mut().predict(0.0);
+        if let Some(f) = self.casing.flexible.as_mut() {
+            f.kernel.get_mut().predict(self.case.load_factor(t_n));
         }
-        // 1. Predict both structures.
-        ki.predict(0.0);
-        if let Some(k) = kc.as_mut() {
-            k.predict(case.load_factor(t_n));
-        }
-        stages.lap(Stage::Predict);
-        // 2. Spline on the predicted casing nodes.
-        if let Some(k) = kc.as_ref() {
-            casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
-        }
-        stages.lap(Stage::Spline);
-        // 3. Blade-tip nodes and closest points.
-        let projection_failed = |e: NodeProjectionError| SimError::Projection {
-            time: t1,
-            reason: e.to_string(),
+        self.clock.lap(Stage::Predict);
+    }
+
+    /// Box 2: the casing spline's control points on the predicted casing (eq. 13).
+    fn casing_surface(&mut self) -> Result<(), SimError> {
+        self.casing.refresh()?;
+        self.clock.lap(Stage::Spline);
+        Ok(())
+    }
+
+    /// Box 3: the blade-tip nodes and their closest points on the casing (eq. 14), for the
+    /// nodes that may be closer than the projector's margin.
+    fn project(&mut self) -> Result<(), SimError> {
+        self.blades.place(&self.r_om);
+        let p = &mut self.projector;
+        let found = p.bounds.project_near(
+            &self.casing.spline,
+            &self.casing.q,
+            &self.blades.nodes,
+            &mut p.warm,
+            p.eps,
+            &mut p.proj,
+            p.margin,
+            false,
+        );
+        found.map(drop).map_err(projection_failed(self.t1))
+    }
+
+    /// Box 3b (Fig. 11): the abradable coating's known forces, applied like corrections, then
+    /// the re-projection so that the Lagrange problem sees them in its predicted gaps.
+    fn coating(&mut self) -> Result<(), SimError> {
+        let Some(cs) = self.coating.as_mut() else {
+            return Ok(());
         };
-        let r_om = rot_z(case.omega * t1);
-        fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-        // On sample steps also every node that may hold the smallest gap, so that the sampled
-        // minimum gap is exact.
-        let sample_step = (step + 1) % num.decimation == 0;
-        gap_bounds
-            .project_near(
-                &spline,
-                &q,
-                &gam,
-                &mut warm,
-                eps,
-                &mut proj,
-                touch_margin,
-                sample_step,
-            )
-            .map_err(projection_failed)?;
-        // 3b. Abradable coating (paper Fig. 11): known coating forces first, then re-projection so
-        // that the Lagrange problem below sees them in its predicted gaps.
-        if let Some(cs) = coat.as_mut() {
-            let fr = StepFrames {
-                spline: &spline,
-                q: &q,
-                past: &past,
-                casing: kc.is_some().then_some(&casing_frames),
-                r_om: &r_om,
-                rot_i: &rot_i,
-                nci,
-            };
-            let any = cs.apply(&fr, &proj, &gam, &gam_prev)?;
-            if any {
-                ki.correct(&cs.fi);
-                if let Some(k) = kc.as_mut() {
-                    k.correct(&cs.fc);
-                    casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
-                }
-                fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-                gap_bounds
-                    .project_near(&spline, &q, &gam, &mut warm, eps, &mut proj, 0.0, true)
-                    .map_err(projection_failed)?;
-                cs.flag_penetrations(nci, &proj)?;
-            }
+        let fr = StepFrames {
+            spline: &self.casing.spline,
+            q: &self.casing.q,
+            past: &self.casing.past,
+            lazy: self.casing.lazy_table(),
+            casing: self.casing.flexible.as_ref().map(|f| &f.frames),
+            r_om: &self.r_om,
+            rot_i: &self.blades.rot,
+            nci: self.blades.n_contact,
+        };
+        let any = cs.apply(
+            &fr,
+            &self.projector.proj,
+            &self.blades.nodes,
+            &self.blades.nodes_prev,
+        )?;
+        if !any {
+            return Ok(());
         }
-        let mut min_gap = f64::INFINITY;
-        cands.clear();
-        for (node, p) in proj.iter().enumerate() {
+        self.blades.kernel.get_mut().correct(&cs.fi);
+        if let Some(f) = self.casing.flexible.as_mut() {
+            f.kernel.get_mut().correct(&cs.fc);
+        }
+        self.casing.refresh()?;
+        self.blades.place(&self.r_om);
+        let p = &mut self.projector;
+        let (eps, spline, q) = (p.eps, &self.casing.spline, &self.casing.q);
+        let found = p.bounds.project_near(
+            spline,
+            q,
+            &self.blades.nodes,
+            &mut p.warm,
+            eps,
+            &mut p.proj,
+            0.0,
+            true,
+        );
+        found.map_err(projection_failed(self.t1))?;
+        cs.flag_penetrations(self.blades.n_contact, &self.projector.proj)?;
+        Ok(())
+    }
+
+    /// The contact candidates: every blade-tip node of negative predicted gap d* (eq. 14).
+    /// On sample steps the minimum gap is made exact: the skipped nodes that may hold it are
+    /// projected aside, changing no state (the same states whatever the decimation).
+    fn gaps(&mut self) -> Result<(), SimError> {
+        let c = &mut self.contact;
+        c.cands.clear();
+        c.force_n.iter_mut().for_each(|x| *x = 0.0);
+        c.force_t.iter_mut().for_each(|x| *x = 0.0);
+        self.residual = 0.0;
+        self.min_gap = f64::INFINITY;
+        for (node, p) in self.projector.proj.iter().enumerate() {
             if !p.gap.is_finite() {
                 return Err(SimError::Diverged {
-                    time: t1,
+                    time: self.t1,
                     reason: format!("non-finite gap at blade node {node}"),
                 });
             }
-            min_gap = min_gap.min(p.gap);
+            self.min_gap = self.min_gap.min(p.gap);
             if p.gap < 0.0 {
-                cands.push(Cand {
+                c.cands.push(Cand {
                     node,
-                    blade: 0,
-                    row: 0,
+                    blade: node / self.blades.n_contact,
+                    row: node % self.blades.n_contact,
                     n: p.normal,
                     fdir: p.normal,
                     slip: false,
@@ -508,252 +842,431 @@ pub fn simulate(
                 });
             }
         }
-        stages.lap(Stage::Projection);
-        force_n.iter_mut().for_each(|x| *x = 0.0);
-        force_t.iter_mut().for_each(|x| *x = 0.0);
-        let in_contact = !cands.is_empty();
-        // Largest residual penetration after correction, evaluated on sample steps (m).
-        let mut residual = 0.0f64;
-        // Off sample steps the fast kernel skips the corrected casing channels; the next step
-        // sees its Lagrange loads through `past`.
-        let lazy_correction = past.flex.is_some() && !sample_step;
-        if in_contact {
-            out.contact_steps += 1;
-            let nk = cands.len();
-            let rt = r_om.transpose();
-            for cd in cands.iter_mut() {
-                let (s, j) = (cd.node / nci, cd.node % nci);
-                cd.blade = s;
-                cd.row = j;
-                // Relative increment of the blade node w.r.t. the casing material point (eq. 15).
-                let mut inc = gam[cd.node] - gam_prev[cd.node];
-                if kc.is_some() {
-                    inc -= past.increment(&spline, &q, cd.node, &cd.param)?;
-                }
-                let t = if mu > 0.0 {
-                    friction_direction(&cd.n, &inc)
-                } else {
-                    None
-                };
-                cd.slip = t.is_some();
-                cd.fdir = cd.n + t.unwrap_or_else(Vector3::zeros) * mu;
-                let to_loc = rot_i[s].transpose() * rt;
-                cd.g_loc = to_loc * cd.n;
-                cd.f_loc = to_loc * cd.fdir;
+        if self.sample_step {
+            let p = &mut self.projector;
+            let exact = p.bounds.exact_min_gap(
+                &self.casing.spline,
+                &self.casing.q,
+                &self.blades.nodes,
+                &p.warm,
+                p.eps,
+                self.min_gap,
+            );
+            self.min_gap = exact.map_err(projection_failed(self.t1))?;
+        }
+        self.clock.lap(Stage::Projection);
+        Ok(())
+    }
+
+    /// The friction direction of each candidate from its slip increment relative to the
+    /// casing material point (eq. 15), and its rows in the blade's frame.
+    fn friction_directions(&mut self) -> Result<(), SimError> {
+        self.summary.contact_steps += 1;
+        let mu = self.case.friction;
+        let (b, cs) = (&self.blades, &self.casing);
+        let rt = self.r_om.transpose();
+        for cd in self.contact.cands.iter_mut() {
+            let mut inc = b.nodes[cd.node] - b.nodes_prev[cd.node];
+            if cs.flexible.is_some() {
+                inc -= cs
+                    .past
+                    .increment(&cs.spline, &cs.q, cd.node, &cd.param, cs.lazy_table())?;
             }
-            for (k, cd) in cands.iter().enumerate() {
-                dvec[k] = proj[cd.node].gap;
-            }
-            // W = G_i A_i⁻¹ F_iᵀ + G_c A_c⁻¹ F_cᵀ (row-major nk × nk).
-            let w = &mut wmat[..nk * nk];
-            w.iter_mut().for_each(|x| *x = 0.0);
-            if fast {
-                let ti = tab_i.as_ref().expect("fast tables built");
-                for (k, a) in cands.iter().enumerate() {
-                    for (l, b) in cands.iter().enumerate() {
-                        let blk = ti.block(a.blade, b.blade, a.row, b.row);
+            let t = if mu > 0.0 {
+                friction_direction(&cd.n, &inc)
+            } else {
+                None
+            };
+            cd.slip = t.is_some();
+            cd.fdir = cd.n + t.unwrap_or_else(Vector3::zeros) * mu;
+            let to_loc = b.rot[cd.blade].transpose() * rt;
+            cd.g_loc = to_loc * cd.n;
+            cd.f_loc = to_loc * cd.fdir;
+        }
+        Ok(())
+    }
+
+    /// Box 4: `W = G_i A_i⁻¹ F_iᵀ + G_c A_c⁻¹ F_cᵀ` and the multipliers λ of eq. (18).
+    fn contact_solve(&mut self) -> Result<(), SimError> {
+        let c = &mut self.contact;
+        let nk = c.cands.len();
+        for (k, cd) in c.cands.iter().enumerate() {
+            c.d[k] = self.projector.proj[cd.node].gap;
+        }
+        let w = &mut c.w[..nk * nk];
+        w.iter_mut().for_each(|x| *x = 0.0);
+        match &self.blades.kernel {
+            Kernel::Modal { table, .. } => {
+                for (k, a) in c.cands.iter().enumerate() {
+                    for (l, b) in c.cands.iter().enumerate() {
+                        let blk = table.block(a.blade, b.blade, a.row, b.row);
                         w[k * nk + l] = a.g_loc.dot(&(blk * b.f_loc));
                     }
                 }
-                if let Some(tc) = tab_c.as_ref() {
-                    for (k, a) in cands.iter().enumerate() {
-                        for (l, b) in cands.iter().enumerate().skip(k) {
-                            let v = tc.pair_block(&a.param, &b.param);
-                            w[k * nk + l] += a.n.dot(&(v * b.fdir));
-                            vblk[k * nk + l] = v;
-                            if l != k {
-                                w[l * nk + k] += b.n.dot(&(v.transpose() * a.fdir));
-                                vblk[l * nk + k] = v.transpose();
-                            }
-                        }
-                    }
-                }
-            } else {
-                dense_w(
-                    hd_i.as_ref().expect("dense flexibility"),
-                    &cands,
-                    nk,
-                    w,
-                    |cd, row, is_f| {
-                        let v = if is_f { cd.f_loc } else { cd.g_loc };
-                        for d in 0..3 {
-                            row[cd.blade * nbi + 3 * cd.row + d] = v[d];
-                        }
-                    },
-                );
-                if let Some(hc) = hd_c.as_ref() {
-                    dense_w(hc, &cands, nk, w, |cd, row, is_f| {
-                        let v = if is_f { cd.fdir } else { cd.n };
-                        spline
-                            .node_weight_factors(&cd.param, &mut wu, &mut wv)
-                            .expect("valid param");
-                        for i in 0..ncs {
-                            let vl = rot_c[i].transpose() * v;
-                            for j in 0..mc {
-                                let wgt = -wu[i] * wv[j];
-                                for d in 0..3 {
-                                    row[i * nbc + 3 * j + d] = wgt * vl[d];
-                                }
-                            }
-                        }
-                    });
-                }
             }
-            if !active_set_solve(nk, w, &dvec[..nk], &mut lam, &mut act, &mut lu, &mut rhs) {
-                return Err(SimError::Diverged {
-                    time: t1,
-                    reason: "singular contact matrix W".into(),
+            Kernel::Dense { flexibility, .. } => {
+                let nbi = self.blades.nb;
+                dense_w(flexibility, &c.cands, nk, w, |cd, row, is_f| {
+                    let v = if is_f { cd.f_loc } else { cd.g_loc };
+                    let at = cd.blade * nbi + 3 * cd.row;
+                    row[at..at + 3].copy_from_slice(v.as_slice());
                 });
             }
-            stages.lap(Stage::ContactSolve);
-            // Corrections, opposite signs on the two structures.
-            fi.iter_mut().for_each(|x| *x = 0.0);
-            for (k, cd) in cands.iter().enumerate() {
-                let l = lam[k];
-                if l == 0.0 {
-                    continue;
-                }
-                for d in 0..3 {
-                    fi[cd.blade * nbi + 3 * cd.row + d] += l * cd.f_loc[d];
-                }
-                force_n[cd.blade] += l;
-                out.active_contacts += 1;
-                if cd.slip {
-                    force_t[cd.blade] += mu * l;
-                }
-            }
-            // The impeller carries no load pattern: its next predictor has amplitude 0.
-            ki.correct_then_predict(&fi, 0.0);
-            if let Some(k) = kc.as_mut() {
-                fc.iter_mut().for_each(|x| *x = 0.0);
-                for (cd, l) in cands.iter().zip(&lam) {
-                    if *l != 0.0 {
-                        let f = cd.fdir * (-l);
-                        casing_frames.add_force(
-                            &spline,
-                            &cd.param,
-                            &f,
-                            (&mut wu, &mut wv),
-                            &mut fc,
-                        )?;
-                        if lazy_correction {
-                            step_loads.push((cd.param, f));
-                        }
-                    }
-                }
-                casing_frames.finish_forces(&mut fc);
-                if lazy_correction {
-                    k.correct_state_then_predict(&fc, case.load_factor(t1));
-                } else {
-                    k.correct_then_predict(&fc, case.load_factor(t1));
-                    casing_frames.control_points(&spline, k.boundary(), &mut pnodes, &mut q)?;
-                }
-                // The casing points the candidates touch, after the correction: moved by
-                // ΔS_k = Σ_l V(k, l) F_l when the channels are not refreshed.
-                for (k, cd) in cands.iter().enumerate() {
-                    let mut x = surface_point(&spline, &q, &cd.param)?;
-                    if lazy_correction {
-                        for (l, (b, lb)) in cands.iter().zip(&lam).enumerate() {
-                            x -= vblk[k * nk + l] * (b.fdir * *lb);
-                        }
-                    }
-                    touched[cd.node] = Some((cd.param, x));
-                }
-            }
-            fill_blade_nodes(ki.boundary(), &r_om, &rot_i, &x_i, nci, &mut gam);
-            // Residual penetration: re-project the candidates on the corrected surface.
-            if sample_step {
-                for cd in cands.iter() {
-                    res_warm[0] = Some(cd.param);
-                    project_nodes(
-                        &spline,
-                        &q,
-                        &gam[cd.node..cd.node + 1],
-                        &mut res_warm,
-                        eps,
-                        &mut res_proj,
-                    )
-                    .map_err(projection_failed)?;
-                    residual = residual.max(-res_proj[0].gap);
-                }
-                if residual > 1e-4 * radius_scale.max(1e-3) {
-                    return Err(SimError::Diverged {
-                        time: t1,
-                        reason: format!("residual penetration {residual:.3e} m after correction"),
-                    });
-                }
-            }
-            stages.lap(Stage::Correction);
         }
-        gam_prev.copy_from_slice(&gam);
-        if kc.is_some() {
-            // The next step's spline rewrites every control point of `q` before reading any.
-            std::mem::swap(&mut past.q, &mut q);
-            std::mem::swap(&mut past.loads, &mut step_loads);
-            step_loads.clear();
-            std::mem::swap(&mut past.touched, &mut touched);
-            touched.iter_mut().for_each(|t| *t = None);
+        if let Some(f) = &self.casing.flexible {
+            casing_w(f, &self.casing.spline, c, nk)?;
         }
-        ki.advance();
-        if let Some(k) = kc.as_mut() {
-            k.advance();
-        }
-        if let Some(cs) = coat.as_mut() {
-            cs.commit()?;
-        }
-        if step % 64 == 0 && !(ki.is_finite() && kc.as_ref().is_none_or(|k| k.is_finite())) {
+        let solved = active_set_solve(
+            nk,
+            &c.w[..nk * nk],
+            &c.d[..nk],
+            &mut c.lambda,
+            &mut c.active,
+            &mut c.lu,
+            &mut c.rhs,
+        );
+        if !solved {
             return Err(SimError::Diverged {
-                time: t1,
+                time: self.t1,
+                reason: "singular contact matrix W".into(),
+            });
+        }
+        self.clock.lap(Stage::ContactSolve);
+        Ok(())
+    }
+
+    /// Box 5: the corrections `u_{n+1} = u* + A⁻¹ f_c` of both structures, opposite signs,
+    /// fused with the next predictors; on sample steps the residual penetration.
+    fn correct(&mut self) -> Result<(), SimError> {
+        let mu = self.case.friction;
+        let next_load = self.case.load_factor(self.t1);
+        let c = &mut self.contact;
+        let nbi = self.blades.nb;
+        c.fi.iter_mut().for_each(|x| *x = 0.0);
+        for (cd, &l) in c.cands.iter().zip(&c.lambda) {
+            if l == 0.0 {
+                continue;
+            }
+            c.fi[cd.blade * nbi + 3 * cd.row..][..3]
+                .iter_mut()
+                .zip(cd.f_loc.iter())
+                .for_each(|(x, f)| *x += l * f);
+            c.force_n[cd.blade] += l;
+            self.summary.active_contacts += 1;
+            if cd.slip {
+                c.force_t[cd.blade] += mu * l;
+            }
+        }
+        // The impeller carries no load pattern: its next predictor has amplitude 0.
+        self.blades
+            .kernel
+            .get_mut()
+            .correct_then_predict(&c.fi, 0.0);
+        if self.casing.flexible.is_some() {
+            self.correct_casing(next_load)?;
+        }
+        self.blades.place(&self.r_om);
+        if self.sample_step {
+            self.residual_penetration()?;
+        }
+        self.clock.lap(Stage::Correction);
+        Ok(())
+    }
+
+    /// The casing's share of box 5. The fast kernel corrects its state without refreshing its
+    /// channels: the next step sees the Lagrange loads through the control-point flexibility
+    /// ([`PastSurface`]), on every step alike, so that what is recorded never changes the
+    /// state. On sample steps the corrected surface is synthesised aside for the residual check.
+    fn correct_casing(&mut self, next_load: f64) -> Result<(), SimError> {
+        let c = &mut self.contact;
+        let cs = &mut self.casing;
+        let Some(f) = cs.flexible.as_mut() else {
+            return Ok(());
+        };
+        let lazy = matches!(f.kernel, Kernel::Modal { .. });
+        c.fc.iter_mut().for_each(|x| *x = 0.0);
+        c.loads.clear();
+        for (cd, l) in c.cands.iter().zip(&c.lambda) {
+            if *l != 0.0 {
+                let force = cd.fdir * (-l);
+                f.frames.add_force(
+                    &cs.spline,
+                    &cd.param,
+                    &force,
+                    (&mut c.wu, &mut c.wv),
+                    &mut c.fc,
+                )?;
+                c.loads.push((cd.param, force));
+            }
+        }
+        f.frames.finish_forces(&mut c.fc);
+        if !lazy {
+            f.kernel.get_mut().correct_then_predict(&c.fc, next_load);
+            cs.refresh()?;
+        } else {
+            if self.sample_step {
+                let k = f.kernel.get_mut();
+                k.response(&c.fc, &mut f.corrected);
+                for (x, u) in f.corrected.iter_mut().zip(k.boundary()) {
+                    *x += u;
+                }
+                f.frames.control_points(
+                    &cs.spline,
+                    &f.corrected,
+                    &mut cs.pnodes,
+                    &mut cs.q_corrected,
+                )?;
+            }
+            f.kernel
+                .get_mut()
+                .correct_state_then_predict(&c.fc, next_load);
+        }
+        // The casing points the candidates touch, after the correction: moved by
+        // ΔS_k = Σ_l V(k, l) F_l when the channels are not refreshed.
+        let nk = c.cands.len();
+        for (k, cd) in c.cands.iter().enumerate() {
+            let mut x = surface_point(&cs.spline, &cs.q, &cd.param)?;
+            if lazy {
+                for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
+                    x -= c.vblk[k * nk + l] * (b.fdir * *lb);
+                }
+            }
+            c.touched[cd.node] = Some((cd.param, x));
+        }
+        if !lazy {
+            c.loads.clear();
+        }
+        Ok(())
+    }
+
+    /// The largest residual penetration after the correction (m): the corrected candidates
+    /// re-projected on the corrected casing surface. A divergence when above 1e-4 of the
+    /// casing radius.
+    fn residual_penetration(&mut self) -> Result<(), SimError> {
+        let cs = &self.casing;
+        let q = match cs.flexible.as_ref().map(|f| &f.kernel) {
+            Some(Kernel::Modal { .. }) => &cs.q_corrected,
+            _ => &cs.q,
+        };
+        let p = &mut self.projector;
+        for cd in self.contact.cands.iter() {
+            p.res_warm[0] = Some(cd.param);
+            let found = project_nodes(
+                &cs.spline,
+                q,
+                &self.blades.nodes[cd.node..cd.node + 1],
+                &mut p.res_warm,
+                p.eps,
+                &mut p.res_proj,
+            );
+            found.map_err(projection_failed(self.t1))?;
+            self.residual = self.residual.max(-p.res_proj[0].gap);
+        }
+        if self.residual > 1e-4 * cs.radius_scale.max(1e-3) {
+            return Err(SimError::Diverged {
+                time: self.t1,
+                reason: format!(
+                    "residual penetration {:.3e} m after correction",
+                    self.residual
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Shifts time on both structures, keeps this step's surface for the next step's slip
+    /// increments, commits the coating, and checks the state is finite.
+    fn advance(&mut self) -> Result<(), SimError> {
+        let b = &mut self.blades;
+        b.nodes_prev.copy_from_slice(&b.nodes);
+        let cs = &mut self.casing;
+        if cs.flexible.is_some() {
+            // The next step's spline rewrites every control point of `q` before reading any.
+            std::mem::swap(&mut cs.past.q, &mut cs.q);
+            std::mem::swap(&mut cs.past.loads, &mut self.contact.loads);
+            self.contact.loads.clear();
+            std::mem::swap(&mut cs.past.touched, &mut self.contact.touched);
+            self.contact.touched.iter_mut().for_each(|t| *t = None);
+        }
+        b.kernel.get_mut().advance();
+        if let Some(f) = cs.flexible.as_mut() {
+            f.kernel.get_mut().advance();
+        }
+        if let Some(c) = self.coating.as_mut() {
+            c.commit()?;
+        }
+        if self.steps_done % 64 == 0
+            && !(b.kernel.get().is_finite()
+                && cs
+                    .flexible
+                    .as_ref()
+                    .is_none_or(|f| f.kernel.get().is_finite()))
+        {
+            return Err(SimError::Diverged {
+                time: self.t1,
                 reason: "non-finite state".into(),
             });
         }
-        // Probes.
-        let ub = ki.boundary();
-        for s in 0..nbl {
-            let r_le = er_i[le].dot(&node_disp(ub, s, nbi, le));
-            let r_te = er_i[te].dot(&node_disp(ub, s, nbi, te));
-            out.max_blade_radial = out.max_blade_radial.max(r_le.abs()).max(r_te.abs());
+        for s in 0..b.n_blades {
+            let (r_le, r_te) = (
+                b.radial_displacement(s, b.le),
+                b.radial_displacement(s, b.te),
+            );
+            let m = &mut self.summary.max_blade_radial;
+            *m = m.max(r_le.abs()).max(r_te.abs());
         }
-        if sample_step {
-            out.time.push(t1);
-            for s in 0..nbl {
-                out.blade_le_radial[s].push(er_i[le].dot(&node_disp(ub, s, nbi, le)));
-                out.blade_te_radial[s].push(er_i[te].dot(&node_disp(ub, s, nbi, te)));
-                out.blade_normal_force[s].push(force_n[s]);
-                out.blade_tangential_force[s].push(force_t[s]);
-            }
-            if let Some(k) = kc.as_mut() {
-                if !case.casing_probes.is_empty() {
-                    k.node_displacements(&mut nodes_c);
-                }
-                for (pi, p) in case.casing_probes.iter().enumerate() {
-                    out.casing_radial[pi]
-                        .push(er_c[p[1]].dot(&node_disp(&nodes_c, p[0], nbc, p[1])));
-                }
-                let e = k.energies();
-                out.casing_energy.kinetic.push(e.kinetic);
-                out.casing_energy.strain.push(e.strain);
-            }
-            out.min_gap.push(min_gap);
-            out.residual_penetration.push(residual);
-            out.max_residual_penetration = out.max_residual_penetration.max(residual);
-            if let Some(cs) = coat.as_mut() {
-                cs.sample();
-            }
-            let e = ki.energies();
-            out.impeller_energy.kinetic.push(e.kinetic);
-            out.impeller_energy.strain.push(e.strain);
-            ki.nd_strain_energy(&mut nd_buf);
-            for (k, v) in nd_buf.iter().enumerate() {
-                out.impeller_nd_strain_energy[k].push(*v);
-            }
-        }
-        stages.lap(Stage::Other);
+        self.steps_done += 1;
+        Ok(())
     }
-    out.loop_seconds = clock.elapsed().as_secs_f64();
-    out.coating = coat.map(CoatingStage::finish).transpose()?;
-    out.stage_seconds = stages.seconds;
-    Ok(out)
+
+    /// Box 6: on sample steps, the probes of the new state, handed to `recorder`.
+    fn record(&mut self, recorder: &mut dyn Recorder) -> Result<(), SimError> {
+        if !self.sample_step {
+            self.clock.lap(Stage::Other);
+            return Ok(());
+        }
+        let b = &self.blades;
+        for s in 0..b.n_blades {
+            self.le[s] = b.radial_displacement(s, b.le);
+            self.te[s] = b.radial_displacement(s, b.te);
+        }
+        let mut casing_energy = None;
+        if let Some(f) = self.casing.flexible.as_mut() {
+            let k = f.kernel.get_mut();
+            if !self.case.casing_probes.is_empty() {
+                k.node_displacements(&mut f.nodes);
+            }
+            let nbc = 3 * self.casing.rows;
+            for (x, p) in self.casing_radial.iter_mut().zip(&self.case.casing_probes) {
+                *x = f.radial[p[1]].dot(&node_disp(&f.nodes, p[0], nbc, p[1]));
+            }
+            casing_energy = Some(k.energies());
+        }
+        let s = &mut self.summary;
+        s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
+        let ki = b.kernel.get();
+        ki.nd_strain_energy(&mut self.nd_energy);
+        let sample = Sample {
+            time: self.t1,
+            blade_le_radial: &self.le,
+            blade_te_radial: &self.te,
+            casing_radial: &self.casing_radial,
+            blade_normal_force: &self.contact.force_n,
+            blade_tangential_force: &self.contact.force_t,
+            min_gap: self.min_gap,
+            residual_penetration: self.residual,
+            impeller_energy: ki.energies(),
+            casing_energy,
+            impeller_nd_strain_energy: &self.nd_energy,
+            coating: self.coating.as_ref().map(|c| CoatingSample {
+                max_wear: &c.max_wear_row,
+                blade_force: &c.blade_force,
+            }),
+        };
+        recorder.record(&sample).map_err(SimError::Record)?;
+        self.clock.lap(Stage::Other);
+        Ok(())
+    }
+}
+
+/// Adds the casing's `G_c A_c⁻¹ F_cᵀ` to `W`: control-point flexibility blocks of the
+/// candidate pairs (fast kernel, kept in `vblk` for the lazy correction), or the dense
+/// flexibility through `B̂ c` (eq. 18).
+fn casing_w(
+    f: &FlexibleCasing,
+    spline: &CasingSpline,
+    c: &mut ContactProblem,
+    nk: usize,
+) -> Result<(), SimError> {
+    let w = &mut c.w[..nk * nk];
+    match &f.kernel {
+        Kernel::Modal { table, .. } => {
+            for (k, a) in c.cands.iter().enumerate() {
+                for (l, b) in c.cands.iter().enumerate().skip(k) {
+                    let v = table.pair_block(&a.param, &b.param);
+                    w[k * nk + l] += a.n.dot(&(v * b.fdir));
+                    c.vblk[k * nk + l] = v;
+                    if l != k {
+                        w[l * nk + k] += b.n.dot(&(v.transpose() * a.fdir));
+                        c.vblk[l * nk + k] = v.transpose();
+                    }
+                }
+            }
+        }
+        Kernel::Dense { flexibility, .. } => {
+            let (ncs, mc) = (f.frames.rot.len(), f.frames.rest_rows.len());
+            let nbc = 3 * mc;
+            let (wu, wv) = (&mut c.wu, &mut c.wv);
+            let mut failed = None;
+            dense_w(flexibility, &c.cands, nk, w, |cd, row, is_f| {
+                let v = if is_f { cd.fdir } else { cd.n };
+                if let Err(e) = spline.node_weight_factors(&cd.param, wu, wv) {
+                    failed = Some(e);
+                    return;
+                }
+                for i in 0..ncs {
+                    let vl = f.frames.rot[i].transpose() * v;
+                    for j in 0..mc {
+                        let wgt = -wu[i] * wv[j];
+                        for d in 0..3 {
+                            row[i * nbc + 3 * j + d] = wgt * vl[d];
+                        }
+                    }
+                }
+            });
+            if let Some(e) = failed {
+                return Err(SimError::Spline(e.to_string()));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Sets the initial velocities of the case on both kernels (`u_{−1} = −h v_0`).
+fn set_initial_velocities(
+    case: &Case,
+    st_i: &Structure,
+    st_c: Option<&Structure>,
+    blades: &mut Blades,
+    casing: &mut CasingSide,
+) -> Result<(), SimError> {
+    if let Some(v) = &case.initial_velocity.impeller {
+        if v.len() != st_i.n_modal {
+            return Err(SimError::InvalidCase(format!(
+                "initial impeller velocity has {} entries, expected {}",
+                v.len(),
+                st_i.n_modal
+            )));
+        }
+        blades.kernel.get_mut().set_initial_velocity(v);
+    }
+    if let Some(v) = &case.initial_velocity.casing {
+        match (st_c, casing.flexible.as_mut()) {
+            (Some(s), Some(f)) if v.len() == s.n_modal => {
+                f.kernel.get_mut().set_initial_velocity(v)
+            }
+            _ => {
+                return Err(SimError::InvalidCase(
+                    "initial casing velocity needs a flexible casing and one entry per DOF".into(),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Simulates `case` for `impeller` rotating inside `casing` (paper Fig. 4) and keeps every
+/// sample in memory ([`SeriesRecorder`]); `cancel` is polled every 1024 steps. For long runs
+/// use [`Simulation::run`] with a recorder whose memory is bounded.
+pub fn simulate(
+    case: &Case,
+    impeller: &CyclicRom,
+    casing: &CasingModel,
+    cancel: Option<&AtomicBool>,
+) -> Result<SimulationOutput, SimError> {
+    let mut rec = SeriesRecorder::default();
+    let summary = Simulation::new(case, impeller, casing)?.run(&mut rec, cancel)?;
+    Ok(rec.into_output(summary))
 }
 
 #[inline]
@@ -853,21 +1366,20 @@ fn dense_w(
 /// point the node touched at the end of the previous step when it was a contact candidate
 /// then (`touched`), else its current closest point. The surface is held as the control
 /// points `q` of a state plus the Lagrange loads applied after it by
-/// [`StructureKernel::correct_state_then_predict`] (fast kernel, `flex` present), whose
-/// displacement of a surface point is `Σ_b V(p, p_b) F_b` through the control-point
-/// flexibility (eq. 18). Without `flex`, `q` is the corrected state itself.
-struct PastSurface<'a> {
+/// [`StructureKernel::correct_state_then_predict`] (fast kernel), whose displacement of a
+/// surface point is `Σ_b V(p, p_b) F_b` through the control-point flexibility `flex`
+/// (eq. 18). Without `flex` (dense kernel), `q` is the corrected state itself.
+struct PastSurface {
     /// Control points (m, global).
     q: Vec<Vector3<f64>>,
     /// Surface points and forces (N, global) of the active contacts on the casing.
     loads: Vec<(SurfaceParam, Vector3<f64>)>,
-    flex: Option<&'a ControlFlexTable>,
     /// Per blade-tip node: the surface point and position (m, global, corrected) of the
     /// casing point it touched, if it was a contact candidate.
     touched: Vec<Option<(SurfaceParam, Vector3<f64>)>>,
 }
 
-impl PastSurface<'_> {
+impl PastSurface {
     /// Displacement (m, global) over the step of the casing material point under blade node
     /// `node`, whose closest point on the casing of control points `q` is `param`.
     fn increment(
@@ -876,12 +1388,13 @@ impl PastSurface<'_> {
         q: &[Vector3<f64>],
         node: usize,
         param: &SurfaceParam,
+        flex: Option<&ControlFlexTable>,
     ) -> Result<Vector3<f64>, SimError> {
         if let Some((p0, x0)) = &self.touched[node] {
             return Ok(surface_point(spline, q, p0)? - x0);
         }
         let mut d = surface_point(spline, q, param)? - surface_point(spline, &self.q, param)?;
-        if let Some(t) = self.flex {
+        if let Some(t) = flex {
             for (pb, f) in &self.loads {
                 d -= t.pair_block(param, pb) * f;
             }
@@ -906,7 +1419,9 @@ fn surface_point(
 struct StepFrames<'a> {
     spline: &'a CasingSpline,
     q: &'a [Vector3<f64>],
-    past: &'a PastSurface<'a>,
+    past: &'a PastSurface,
+    /// The fast casing kernel's control-point flexibility (see [`PastSurface`]).
+    lazy: Option<&'a ControlFlexTable>,
     /// The flexible casing's frames (casing forces are then assembled); `None` if rigid.
     casing: Option<&'a CasingFrames>,
     r_om: &'a Matrix3<f64>,
@@ -952,18 +1467,16 @@ struct CoatingStage {
 }
 
 impl CoatingStage {
-    #[allow(clippy::too_many_arguments)]
     fn new(
         cc: &CoatingCase,
         impeller: &CyclicRom,
-        rows_i: &[usize],
-        n_rows: usize,
+        blades: &Blades,
         mu: f64,
-        ncs: usize,
-        mc: usize,
-        n_samples: usize,
+        casing: &CasingSide,
     ) -> Result<Self, SimError> {
         let bad = |m: String| SimError::InvalidCase(m);
+        let (rows_i, n_rows) = (&blades.rows, blades.n_rows);
+        let (ncs, mc) = (casing.n_sectors, casing.rows);
         let mut row_pos = vec![None; n_rows];
         for (c, &r) in impeller.contact_nodes.iter().zip(rows_i) {
             row_pos[r].get_or_insert(c.position);
@@ -980,7 +1493,7 @@ impl CoatingStage {
         let nn = nbl * impeller.n_contact();
         Ok(Self {
             layer,
-            row_of: rows_i.to_vec(),
+            row_of: rows_i.clone(),
             mu,
             nbi,
             pending: Vec::with_capacity(nn),
@@ -995,8 +1508,6 @@ impl CoatingStage {
             out: CoatingOutput {
                 eta: cc.eta,
                 thickness: cc.material.thickness,
-                max_wear: vec![Vec::with_capacity(n_samples); n_rows],
-                blade_force: vec![Vec::with_capacity(n_samples); nbl],
                 ..Default::default()
             },
         })
@@ -1047,7 +1558,9 @@ impl CoatingStage {
             // Relative increment of the node w.r.t. the casing material point (eq. 15).
             let mut inc = gam[node] - gam_prev[node];
             if fr.casing.is_some() {
-                inc -= fr.past.increment(fr.spline, fr.q, node, &p.param)?;
+                inc -= fr
+                    .past
+                    .increment(fr.spline, fr.q, node, &p.param, fr.lazy)?;
             }
             let t = if self.mu > 0.0 {
                 friction_direction(&p.normal, &inc)
@@ -1113,16 +1626,6 @@ impl CoatingStage {
         self.pending.clear();
         self.removals.clear();
         Ok(())
-    }
-
-    /// Records one probe sample.
-    fn sample(&mut self) {
-        for (r, w) in self.max_wear_row.iter().enumerate() {
-            self.out.max_wear[r].push(*w);
-        }
-        for (b, f) in self.blade_force.iter().enumerate() {
-            self.out.blade_force[b].push(*f);
-        }
     }
 
     /// The final coating probes.
@@ -1284,10 +1787,8 @@ impl CoatingStage {
     /// non-oscillating for `k w < 1`, which is required here.
     fn check_stability(
         &self,
-        ki: &mut dyn StructureKernel,
-        kc: Option<&mut (dyn StructureKernel + '_)>,
-        er_i: &[Vector3<f64>],
-        er_c: &[Vector3<f64>],
+        blades: &mut Blades,
+        casing: Option<&mut FlexibleCasing>,
     ) -> Result<(), SimError> {
         let unit_radial = |k: &mut dyn StructureKernel, e: &[Vector3<f64>]| {
             let nb = k.n_boundary();
@@ -1305,9 +1806,11 @@ impl CoatingStage {
                 })
                 .collect::<Vec<f64>>()
         };
-        let w_i = unit_radial(ki, er_i);
-        let w_c = kc.map_or(0.0, |k| {
-            unit_radial(k, er_c).into_iter().fold(0.0f64, f64::max)
+        let w_i = unit_radial(blades.kernel.get_mut(), &blades.radial);
+        let w_c = casing.map_or(0.0, |f| {
+            unit_radial(f.kernel.get_mut(), &f.radial)
+                .into_iter()
+                .fold(0.0f64, f64::max)
         });
         for (j, wi) in w_i.iter().enumerate() {
             let k = self.elastic_stiffness(self.row_of[j]);

@@ -1,5 +1,6 @@
 //! Input and output: the only stage that touches the file system.
 
+pub mod atomic;
 pub mod calculix;
 pub mod matrix_market;
 pub mod model_cache;

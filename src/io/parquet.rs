@@ -21,7 +21,8 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
 
-use crate::sweep::checkpoint::{JobRecord, JobStatus, temp_path};
+use crate::io::atomic::AtomicFile;
+use crate::sweep::checkpoint::{JobRecord, JobStatus};
 use crate::sweep::planner::CoatingValue;
 
 /// Column name, unit (`"1"` = dimensionless, `""` = not a quantity) and description,
@@ -332,29 +333,19 @@ pub fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> {
     RecordBatch::try_new(schema, cols).context("building the results table")
 }
 
-/// Writes the results table to `path` atomically (temporary file + rename), ZSTD compressed.
+/// Writes the results table to `path` atomically ([`AtomicFile`]), ZSTD compressed.
 pub fn write_results(path: &Path, rows: &[(usize, JobRecord)]) -> Result<()> {
     let batch = results_batch(rows)?;
-    let tmp = temp_path(path);
     let write = || -> Result<()> {
         let props = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
             .build();
-        let file =
-            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut w = ArrowWriter::try_new(file, batch.schema(), Some(props))?;
+        let mut w = ArrowWriter::try_new(AtomicFile::create(path)?, batch.schema(), Some(props))?;
         w.write(&batch)?;
-        let file = w.into_inner()?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot rename to {}", path.display()))?;
+        w.into_inner()?.commit()?;
         Ok(())
     };
-    let r = write();
-    if r.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    r.with_context(|| format!("cannot write {}", path.display()))
+    write().with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Reads a results table back (all batches).

@@ -75,20 +75,9 @@ pub fn save(rom: &CyclicRom, path: &Path) -> Result<(), RomFileError> {
 
 /// Writes `bytes` to `path` through a temporary sibling file and a rename, so a reader never sees a partial file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RomFileError> {
-    let wrap = |source| RomFileError::Write {
+    crate::io::atomic::write_atomic(path, bytes).map_err(|source| RomFileError::Write {
         path: path.into(),
         source,
-    };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(wrap)?;
-    }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(format!(".tmp{}", std::process::id()));
-    let tmp = PathBuf::from(tmp);
-    std::fs::write(&tmp, bytes).map_err(wrap)?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        wrap(e)
     })
 }
 

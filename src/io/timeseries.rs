@@ -1,70 +1,181 @@
-//! Time series of one simulation as a Parquet table: one `Float64` column per
-//! probe, the unit in the column name suffix and in the field metadata (`unit`).
+//! Time series of one simulation as a Parquet table, streamed while it runs: one `Float64`
+//! column per probe, the unit in the column name suffix and in the field metadata (`unit`).
 
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, ensure};
+use anyhow::{Context, Result};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch};
 use arrow_schema::{DataType, Field, Schema};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
 
-use crate::io::rom_file::write_atomic;
+use crate::dynamics::recorder::{RecordError, Recorder, Sample};
+use crate::io::atomic::AtomicFile;
 
-/// One column of a time-series table.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Column {
-    /// Column name, ending in its unit (`_m`, `_n`, `_s`, `_j`).
-    pub name: String,
-    /// Unit written to the field metadata (e.g. `m`).
-    pub unit: &'static str,
-    /// One value per sample.
-    pub values: Vec<f64>,
+/// The name of a time-series column: `name`, or `{prefix}{index}_{suffix}`.
+enum ColumnName {
+    Plain(&'static str),
+    Indexed(&'static str, usize, &'static str),
 }
 
-/// Encodes equally long columns as a ZSTD-compressed Parquet file in memory.
-pub fn to_parquet_bytes(columns: &[Column]) -> Result<Vec<u8>> {
-    let rows = columns.first().map_or(0, |c| c.values.len());
-    for c in columns {
-        ensure!(
-            c.values.len() == rows,
-            "column `{}` has {} rows, expected {rows}",
-            c.name,
-            c.values.len()
-        );
+impl ColumnName {
+    fn text(&self) -> String {
+        match self {
+            ColumnName::Plain(n) => (*n).to_string(),
+            ColumnName::Indexed(p, i, s) => format!("{p}{i}_{s}"),
+        }
     }
-    let fields: Vec<Field> = columns
-        .iter()
-        .map(|c| {
-            Field::new(&c.name, DataType::Float64, false)
-                .with_metadata(HashMap::from([("unit".to_string(), c.unit.to_string())]))
-        })
-        .collect();
-    let schema = Arc::new(Schema::new(fields));
-    let arrays: Vec<ArrayRef> = columns
-        .iter()
-        .map(|c| Arc::new(Float64Array::from(c.values.clone())) as ArrayRef)
-        .collect();
-    let batch = RecordBatch::try_new(schema.clone(), arrays)?;
-    let props = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
-        .build();
-    let mut bytes = Vec::new();
-    let mut writer = ArrowWriter::try_new(&mut bytes, schema, Some(props))?;
-    writer.write(&batch)?;
-    writer.close()?;
-    Ok(bytes)
 }
 
-/// Writes the columns to `path` atomically.
-pub fn write(path: &Path, columns: &[Column]) -> Result<()> {
-    let bytes =
-        to_parquet_bytes(columns).with_context(|| format!("encoding {}", path.display()))?;
-    write_atomic(path, &bytes)?;
-    Ok(())
+/// Calls `f` with the name, unit and value of every column of a sample, in table order.
+fn each_column(s: &Sample<'_>, mut f: impl FnMut(ColumnName, &'static str, f64)) {
+    f(ColumnName::Plain("time_s"), "s", s.time);
+    let mut per = |prefix, suffix, unit, values: &[f64]| {
+        for (i, v) in values.iter().enumerate() {
+            f(ColumnName::Indexed(prefix, i, suffix), unit, *v);
+        }
+    };
+    per("blade", "le_radial_m", "m", s.blade_le_radial);
+    per("blade", "te_radial_m", "m", s.blade_te_radial);
+    per("casing_probe", "radial_m", "m", s.casing_radial);
+    per("blade", "normal_force_n", "N", s.blade_normal_force);
+    per("blade", "tangential_force_n", "N", s.blade_tangential_force);
+    per(
+        "impeller_nd",
+        "strain_energy_j",
+        "J",
+        s.impeller_nd_strain_energy,
+    );
+    if let Some(c) = &s.coating {
+        per("coating_row", "max_wear_m", "m", c.max_wear);
+        per("blade", "coating_force_n", "N", c.blade_force);
+    }
+    f(ColumnName::Plain("min_gap_m"), "m", s.min_gap);
+    f(
+        ColumnName::Plain("residual_penetration_m"),
+        "m",
+        s.residual_penetration,
+    );
+    let e = s.impeller_energy;
+    f(
+        ColumnName::Plain("impeller_kinetic_energy_j"),
+        "J",
+        e.kinetic,
+    );
+    f(ColumnName::Plain("impeller_strain_energy_j"), "J", e.strain);
+    if let Some(e) = s.casing_energy {
+        f(ColumnName::Plain("casing_kinetic_energy_j"), "J", e.kinetic);
+        f(ColumnName::Plain("casing_strain_energy_j"), "J", e.strain);
+    }
+}
+
+/// A [`Recorder`] that streams the samples of a simulation to a Parquet file, one row per
+/// sample and one `Float64` column per probe (names end in their unit, which is also in the
+/// field metadata), in row groups of [`TimeSeriesWriter::ROW_GROUP`] rows: its memory does not
+/// grow with the run. The file appears, whole, only when [`TimeSeriesWriter::finish`] succeeds.
+pub struct TimeSeriesWriter {
+    path: std::path::PathBuf,
+    schema: Option<Arc<Schema>>,
+    writer: Option<ArrowWriter<AtomicFile>>,
+    file: Option<AtomicFile>,
+    columns: Vec<Vec<f64>>,
+}
+
+impl TimeSeriesWriter {
+    /// Rows buffered per row group (8 MiB for 16 columns).
+    pub const ROW_GROUP: usize = 65_536;
+
+    /// Starts the file `path` (written under a temporary name until [`Self::finish`]).
+    pub fn create(path: &Path) -> Result<Self> {
+        let file =
+            AtomicFile::create(path).with_context(|| format!("creating {}", path.display()))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            schema: None,
+            writer: None,
+            file: Some(file),
+            columns: Vec::new(),
+        })
+    }
+
+    fn start(&mut self, sample: &Sample<'_>) -> Result<()> {
+        let mut fields = Vec::new();
+        each_column(sample, |name, unit, _| {
+            fields.push(
+                Field::new(name.text(), DataType::Float64, false)
+                    .with_metadata(HashMap::from([("unit".to_string(), unit.to_string())])),
+            );
+        });
+        let schema = Arc::new(Schema::new(fields));
+        let props = WriterProperties::builder()
+            .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
+            .set_max_row_group_row_count(Some(Self::ROW_GROUP))
+            .build();
+        let file = self.file.take().context("time series already started")?;
+        self.writer = Some(ArrowWriter::try_new(file, schema.clone(), Some(props))?);
+        self.columns = vec![Vec::with_capacity(Self::ROW_GROUP); schema.fields().len()];
+        self.schema = Some(schema);
+        Ok(())
+    }
+
+    fn flush_rows(&mut self) -> Result<()> {
+        let (Some(schema), Some(writer)) = (&self.schema, self.writer.as_mut()) else {
+            return Ok(());
+        };
+        if self.columns.first().is_none_or(Vec::is_empty) {
+            return Ok(());
+        }
+        let arrays: Vec<ArrayRef> = self
+            .columns
+            .iter_mut()
+            .map(|c| Arc::new(Float64Array::from(std::mem::take(c))) as ArrayRef)
+            .collect();
+        writer.write(&RecordBatch::try_new(schema.clone(), arrays)?)?;
+        Ok(())
+    }
+
+    /// Writes the last rows and the footer, then commits the file (synced, renamed).
+    pub fn finish(mut self) -> Result<()> {
+        let path = self.path.clone();
+        let ctx = || format!("writing {}", path.display());
+        if self.writer.is_none() {
+            // No sample: a table with an empty time column.
+            let file = self.file.take().context("time series already finished")?;
+            let schema = Arc::new(Schema::new(vec![
+                Field::new("time_s", DataType::Float64, false)
+                    .with_metadata(HashMap::from([("unit".to_string(), "s".to_string())])),
+            ]));
+            self.writer = Some(ArrowWriter::try_new(file, schema, None)?);
+        }
+        self.flush_rows().with_context(ctx)?;
+        let writer = self.writer.take().context("time series already finished")?;
+        let file = writer.into_inner().with_context(ctx)?;
+        file.commit().with_context(ctx)
+    }
+}
+
+impl Recorder for TimeSeriesWriter {
+    fn record(&mut self, sample: &Sample<'_>) -> Result<(), RecordError> {
+        if self.schema.is_none() {
+            self.start(sample)?;
+        }
+        let mut col = self.columns.iter_mut();
+        let mut missing = false;
+        each_column(sample, |_, _, v| match col.next() {
+            Some(c) => c.push(v),
+            None => missing = true,
+        });
+        if missing || col.next().is_some() {
+            return Err("a sample does not have the columns of the first one".into());
+        }
+        if self.columns[0].len() >= Self::ROW_GROUP {
+            self.flush_rows()?;
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -73,56 +184,74 @@ mod tests {
     use arrow_array::Array;
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
+    /// A streamed series reads back with its columns, units and values; nothing appears under
+    /// the final name before `finish`, and a writer dropped unfinished leaves nothing.
     #[test]
-    fn columns_round_trip_with_units() {
-        let cols = vec![
-            Column {
-                name: "time_s".into(),
-                unit: "s",
-                values: vec![0.0, 1e-6, 2e-6],
-            },
-            Column {
-                name: "blade0_le_radial_m".into(),
-                unit: "m",
-                values: vec![1e-5, -2e-5, 3e-5],
-            },
-        ];
-        let path = std::env::temp_dir().join(format!("rubscan-ts-{}.parquet", std::process::id()));
-        write(&path, &cols).unwrap();
+    fn streamed_samples_read_back_and_appear_only_when_finished() {
+        use crate::dynamics::kernel::Energies;
+        let dir = std::env::temp_dir().join(format!("rubscan-tsw-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let path = dir.join("ts.parquet");
+        let sample = |i: usize| {
+            let t = i as f64 * 1e-6;
+            (t, [t * 2.0, -t], [0.5 * t])
+        };
+        let record = |w: &mut TimeSeriesWriter, i: usize| {
+            let (t, le, nd) = sample(i);
+            let s = Sample {
+                time: t,
+                blade_le_radial: &le,
+                blade_te_radial: &le,
+                casing_radial: &[],
+                blade_normal_force: &[0.0, 1.0],
+                blade_tangential_force: &[0.0, 0.1],
+                min_gap: -t,
+                residual_penetration: 0.0,
+                impeller_energy: Energies::default(),
+                casing_energy: None,
+                impeller_nd_strain_energy: &nd,
+                coating: None,
+            };
+            w.record(&s).unwrap();
+        };
+        {
+            let mut w = TimeSeriesWriter::create(&path).unwrap();
+            record(&mut w, 0);
+        }
+        assert!(!path.exists());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        let mut w = TimeSeriesWriter::create(&path).unwrap();
+        let n = 3 * TimeSeriesWriter::ROW_GROUP / 2;
+        for i in 0..n {
+            record(&mut w, i);
+        }
+        assert!(!path.exists());
+        w.finish().unwrap();
         let reader =
             ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(&path).unwrap()).unwrap();
-        std::fs::remove_file(&path).unwrap();
-        let field = reader.schema().field(1).clone();
-        assert_eq!(field.metadata().get("unit").map(String::as_str), Some("m"));
-        let batch = reader.build().unwrap().next().unwrap().unwrap();
-        let col = batch
-            .column(1)
-            .as_any()
-            .downcast_ref::<Float64Array>()
-            .unwrap();
-        assert_eq!(col.values().to_vec(), cols[1].values);
-        assert_eq!(col.len(), 3);
-    }
-
-    #[test]
-    fn ragged_columns_are_rejected() {
-        let cols = vec![
-            Column {
-                name: "a_m".into(),
-                unit: "m",
-                values: vec![0.0],
-            },
-            Column {
-                name: "b_m".into(),
-                unit: "m",
-                values: vec![],
-            },
-        ];
-        assert!(
-            to_parquet_bytes(&cols)
-                .unwrap_err()
-                .to_string()
-                .contains("`b_m`")
+        assert_eq!(reader.metadata().num_row_groups(), 2);
+        let schema = reader.schema().clone();
+        let le1 = schema.index_of("blade1_le_radial_m").unwrap();
+        assert_eq!(schema.field(le1).metadata()["unit"], "m");
+        assert_eq!(
+            schema
+                .field(schema.index_of("impeller_nd0_strain_energy_j").unwrap())
+                .metadata()["unit"],
+            "J"
         );
+        assert!(schema.index_of("casing_kinetic_energy_j").is_err());
+        let mut values = Vec::new();
+        for batch in reader.build().unwrap() {
+            let batch = batch.unwrap();
+            let col = batch
+                .column(le1)
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .unwrap();
+            values.extend_from_slice(col.values());
+        }
+        let expect: Vec<f64> = (0..n).map(|i| sample(i).1[1]).collect();
+        assert_eq!(values, expect);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -8,6 +8,7 @@
 //! The simulation itself is behind the [`JobSimulator`] trait; [`synthetic::SyntheticSimulator`]
 //! is a deterministic analytic stand-in used by the tests.
 
+pub mod aggregate;
 pub mod checkpoint;
 pub mod planner;
 pub mod runner;

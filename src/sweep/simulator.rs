@@ -1,7 +1,7 @@
 //! The real [`JobSimulator`]: resolves a sweep's models once, turns each job into a
-//! [`Case`], runs [`simulate`] and aggregates the time series into a [`JobResult`]
-//! (maxima, Fourier peaks over the steady window, strain energy per nodal diameter,
-//! nearest critical speed of the linear interaction criterion).
+//! [`Case`], runs its [`Simulation`] into a [`JobAggregator`] (maxima, Fourier peaks over
+//! the steady window, strain energy per nodal diameter, in bounded memory) and adds the
+//! nearest critical speed of the linear interaction criterion.
 
 use std::sync::atomic::AtomicBool;
 
@@ -10,18 +10,16 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
-use crate::analysis::spectra::{PeakOptions, SpectrumAnalyzer};
 use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::scenario::CoatingCase;
-use crate::dynamics::{
-    Case, CasingModel, LobeLoad, Numerics, RigidCasing, RigidShape, SimulationOutput, simulate,
-};
+use crate::dynamics::{Case, CasingModel, LobeLoad, Numerics, RigidCasing, RigidShape, Simulation};
 use crate::io::{model_cache, rom_file};
 use crate::model::build::{CasingSpec, ImpellerSpec};
 use crate::model::rom::CyclicRom;
+use crate::sweep::aggregate::JobAggregator;
 use crate::sweep::planner::{CoatingParams, CoatingValue, Job};
 use crate::sweep::spec::{CasingSource, ModelSource, SweepSpec};
-use crate::sweep::{CriticalSpeed, FourierPeak, JobResult, JobSimulator, Maxima, Spectrum};
+use crate::sweep::{CriticalSpeed, JobResult, JobSimulator};
 
 /// Scenario fields beyond `duration_s` and `lobes` (sweep spec `scenario`), all optional.
 #[derive(Debug, Default, Deserialize)]
@@ -385,10 +383,16 @@ impl ModelSimulator {
 impl JobSimulator for ModelSimulator {
     fn run(&self, job: &Job, cancel: &AtomicBool) -> Result<JobResult, String> {
         let (case, casing, extras) = self.case_for_job(job).map_err(|e| format!("{e:#}"))?;
-        let out =
-            simulate(&case, &self.impeller, &casing, Some(cancel)).map_err(|e| e.to_string())?;
         let window_start = steady_window_start(&case, extras.steady_fraction.unwrap_or(0.5));
-        let mut result = aggregate(&out, case.omega, window_start)?;
+        let mut rows = JobAggregator::new(
+            case.omega,
+            window_start,
+            JobAggregator::DEFAULT_WINDOW_SAMPLES,
+        );
+        let summary = Simulation::new(&case, &self.impeller, &casing)
+            .and_then(|sim| sim.run(&mut rows, Some(cancel)))
+            .map_err(|e| e.to_string())?;
+        let mut result = rows.finish(&summary)?;
         result.critical_speed = nearest(&self.criticals, case.omega);
         Ok(result)
     }
@@ -412,95 +416,6 @@ fn nearest(table: &[CriticalSpeed], omega: f64) -> Option<CriticalSpeed> {
                 .total_cmp(&(b.speed_rad_s - omega).abs())
         })
         .copied()
-}
-
-fn abs_max<'a>(series: impl IntoIterator<Item = &'a Vec<f64>>) -> f64 {
-    series
-        .into_iter()
-        .flatten()
-        .fold(0.0, |m, v| m.max(v.abs()))
-}
-
-/// Aggregates a simulation into the sweep's per-job row: maxima over the run, Fourier peaks
-/// (Hann window) of blade 0's leading-edge radial displacement over the steady window
-/// `t ≥ window_start`, and the mean strain energy per nodal diameter over that window.
-pub fn aggregate(
-    out: &SimulationOutput,
-    omega: f64,
-    window_start: f64,
-) -> Result<JobResult, String> {
-    let maxima = Maxima {
-        blade_le_radial_m: abs_max(&out.blade_le_radial),
-        blade_te_radial_m: abs_max(&out.blade_te_radial),
-        casing_radial_m: abs_max(&out.casing_radial),
-        contact_normal_force_n: abs_max(&out.blade_normal_force),
-        coating_force_n: out
-            .coating
-            .as_ref()
-            .map_or(0.0, |c| abs_max(&c.blade_force)),
-    };
-    let first = out
-        .time
-        .iter()
-        .position(|&t| t >= window_start)
-        .unwrap_or(out.time.len());
-    let n = out.time.len() - first;
-    let dt = if out.time.len() > 1 {
-        out.time[1] - out.time[0]
-    } else {
-        0.0
-    };
-    let (mut fourier_peaks, mut spectrum) = (vec![], None);
-    if let (Some(signal), true) = (out.blade_le_radial.first(), n >= 16 && dt > 0.0) {
-        let signal = &signal[first..];
-        let mut analyzer = SpectrumAnalyzer::new(n).map_err(|e| e.to_string())?;
-        let opts = PeakOptions {
-            max_peaks: 5,
-            ..PeakOptions::default()
-        };
-        fourier_peaks = analyzer
-            .peaks(signal, dt, omega, &opts)
-            .map_err(|e| e.to_string())?
-            .into_iter()
-            .map(|p| FourierPeak {
-                frequency_hz: p.frequency_hz,
-                engine_order: p.engine_order,
-                amplitude_m: p.amplitude,
-            })
-            .collect();
-        let df = analyzer.bin_width(dt);
-        let amplitude = analyzer
-            .amplitude_spectrum(signal, dt, true)
-            .map_err(|e| e.to_string())?
-            .to_vec();
-        spectrum = Some(Spectrum {
-            df_hz: df,
-            amplitude_m: amplitude,
-        });
-    }
-    let strain_energy_per_nd_j = out
-        .impeller_nd_strain_energy
-        .iter()
-        .map(|e| {
-            if e.len() > first {
-                e[first..].iter().sum::<f64>() / (e.len() - first) as f64
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    Ok(JobResult {
-        maxima,
-        wear_profile_m: out
-            .coating
-            .as_ref()
-            .map_or(vec![], |c| c.final_wear.clone()),
-        fourier_peaks,
-        strain_energy_per_nd_j,
-        residual_penetration_m: out.max_residual_penetration,
-        critical_speed: None,
-        spectrum,
-    })
 }
 
 #[cfg(test)]

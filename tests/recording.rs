@@ -1,0 +1,200 @@
+//! Recording does not change the physics: the same job sampled every step, every 10th and
+//! every 100th step (and recorded into memory or only aggregated) gives bit-identical probes
+//! at the common sample times and the same run counters, on the built-in paper-scale models
+//! (flexible casing under its two-lobe load, friction, abradable coating) and on a rigid
+//! casing.
+
+use rubscan::app::{casing_rom, impeller_rom};
+use rubscan::dynamics::abradable::CoatingMaterial;
+use rubscan::dynamics::recorder::SeriesRecorder;
+use rubscan::dynamics::simulate::Simulation;
+use rubscan::dynamics::{Case, CasingModel, CoatingCase, LobeLoad, Numerics, SimulationOutput};
+use rubscan::model::build::{CasingSpec, ImpellerSpec};
+use rubscan::model::rom::CyclicRom;
+use rubscan::sweep::aggregate::JobAggregator;
+use rubscan::sweep::simulator::{rigid_casing, rigid_meridian};
+
+fn run(case: &Case, imp: &CyclicRom, casing: &CasingModel) -> SimulationOutput {
+    let mut rec = SeriesRecorder::default();
+    let summary = Simulation::new(case, imp, casing)
+        .unwrap()
+        .run(&mut rec, None)
+        .unwrap();
+    rec.into_output(summary)
+}
+
+/// Every probe of `a` at sample `i·stride` equals (bitwise) that of `b` at sample `i`.
+fn assert_common_samples_equal(a: &SimulationOutput, b: &SimulationOutput, stride: usize) {
+    assert!(!b.time.is_empty());
+    let pick = |s: &[f64]| -> Vec<u64> {
+        s.iter()
+            .skip(stride - 1)
+            .step_by(stride)
+            .map(|x| x.to_bits())
+            .collect()
+    };
+    let bits = |s: &[f64]| -> Vec<u64> { s.iter().map(|x| x.to_bits()).collect() };
+    let same = |name: &str, x: &[f64], y: &[f64]| {
+        assert_eq!(pick(x), bits(y), "{name} differs (stride {stride})");
+    };
+    same("time", &a.time, &b.time);
+    let groups: [(&str, &Vec<Vec<f64>>, &Vec<Vec<f64>>); 6] = [
+        ("blade_le_radial", &a.blade_le_radial, &b.blade_le_radial),
+        ("blade_te_radial", &a.blade_te_radial, &b.blade_te_radial),
+        ("casing_radial", &a.casing_radial, &b.casing_radial),
+        ("normal_force", &a.blade_normal_force, &b.blade_normal_force),
+        (
+            "tangential_force",
+            &a.blade_tangential_force,
+            &b.blade_tangential_force,
+        ),
+        (
+            "nd_strain_energy",
+            &a.impeller_nd_strain_energy,
+            &b.impeller_nd_strain_energy,
+        ),
+    ];
+    for (name, x, y) in groups {
+        assert_eq!(x.len(), y.len(), "{name}");
+        for (xs, ys) in x.iter().zip(y) {
+            same(name, xs, ys);
+        }
+    }
+    same("min_gap", &a.min_gap, &b.min_gap);
+    same(
+        "impeller kinetic energy",
+        &a.impeller_energy.kinetic,
+        &b.impeller_energy.kinetic,
+    );
+    same(
+        "casing strain energy",
+        &a.casing_energy.strain,
+        &b.casing_energy.strain,
+    );
+    if let (Some(ca), Some(cb)) = (&a.coating, &b.coating) {
+        for (x, y) in ca.max_wear.iter().zip(&cb.max_wear) {
+            same("coating max wear", x, y);
+        }
+        assert_eq!(ca.final_wear, cb.final_wear);
+    }
+    assert_eq!(
+        (a.contact_steps, a.active_contacts),
+        (b.contact_steps, b.active_contacts)
+    );
+    assert_eq!(a.max_blade_radial.to_bits(), b.max_blade_radial.to_bits());
+}
+
+/// Checks the decimations and the aggregator on `case`; returns the run sampled every step.
+fn check_decimations(case: &Case, imp: &CyclicRom, casing: &CasingModel) -> SimulationOutput {
+    let with = |d: usize| {
+        let mut c = case.clone();
+        c.numerics.decimation = d;
+        run(&c, imp, casing)
+    };
+    let every = with(1);
+    let coating_steps = every.coating.as_ref().map_or(0, |c| c.coating_steps);
+    assert!(
+        every.contact_steps + coating_steps > every.n_steps / 2,
+        "the case must rub: {} contact and {coating_steps} coating steps of {}",
+        every.contact_steps,
+        every.n_steps
+    );
+    for d in [10, 100] {
+        assert_common_samples_equal(&every, &with(d), d);
+    }
+    // Aggregating instead of keeping the series: the same maxima as the series give.
+    let mut agg = JobAggregator::new(case.omega, 0.0, usize::MAX);
+    let mut c = case.clone();
+    c.numerics.decimation = 10;
+    let summary = Simulation::new(&c, imp, casing)
+        .unwrap()
+        .run(&mut agg, None)
+        .unwrap();
+    let row = agg.finish(&summary).unwrap();
+    let peak = every
+        .blade_le_radial
+        .iter()
+        .flat_map(|s| s.iter().skip(9).step_by(10))
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    assert_eq!(row.maxima.blade_le_radial_m.to_bits(), peak.to_bits());
+    assert_eq!(summary.contact_steps, every.contact_steps);
+    every
+}
+
+fn paper_models() -> (CyclicRom, CyclicRom) {
+    (
+        impeller_rom(&ImpellerSpec::default()).unwrap(),
+        casing_rom(&CasingSpec::default()).unwrap(),
+    )
+}
+
+#[test]
+fn decimation_does_not_change_a_coated_flexible_casing_run() {
+    let (imp, cas) = paper_models();
+    let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap() + 1;
+    let h = 1e-7;
+    let coating = CoatingCase::new(CoatingMaterial::nominal());
+    let case = Case {
+        omega: 3000.0,
+        duration: 3000.0 * h,
+        friction: 0.15,
+        // A two-lobe load held from the start, deep enough to cut through the 2 mm coating:
+        // the trailing edge loads the coating from about step 300 on, then the casing.
+        load: Some(LobeLoad {
+            lobes: 2,
+            static_displacement: 3e-3,
+            ramp_time: h,
+            hold_time: 1.0,
+        }),
+        clearance_offset: vec![-coating.material.thickness; rows],
+        casing_probes: vec![[0, 4], [25, 4]],
+        initial_velocity: Default::default(),
+        numerics: Numerics {
+            time_step: h,
+            ..Default::default()
+        },
+        coating: Some(coating),
+    };
+    let every = check_decimations(&case, &imp, &CasingModel::Flexible(cas));
+    assert!(every.contact_steps > 0 && every.coating.unwrap().coating_steps > 0);
+}
+
+#[test]
+fn decimation_does_not_change_a_rigid_casing_run() {
+    let (imp, _) = paper_models();
+    let tips: Vec<[f64; 2]> = {
+        let mut rows: Vec<(usize, [f64; 2])> = imp
+            .contact_nodes
+            .iter()
+            .map(|c| (c.row, [c.position[0].hypot(c.position[1]), c.position[2]]))
+            .collect();
+        rows.sort_by_key(|r| r.0);
+        rows.dedup_by_key(|r| r.0);
+        rows.into_iter().map(|(_, p)| p).collect()
+    };
+    // A casing 0.1 mm off the tips, distorted in 3 lobes of 0.2 mm: the blades rub at every
+    // lobe passage.
+    let h = 1e-7;
+    let casing = CasingModel::Rigid(rigid_casing(
+        3,
+        2e-4,
+        None,
+        Some(120),
+        rigid_meridian(&tips, 1e-4),
+    ));
+    let case = Case {
+        omega: 3000.0,
+        duration: 3000.0 * h,
+        friction: 0.15,
+        load: None,
+        clearance_offset: vec![],
+        casing_probes: vec![],
+        initial_velocity: Default::default(),
+        numerics: Numerics {
+            time_step: h,
+            ..Default::default()
+        },
+        coating: None,
+    };
+    check_decimations(&case, &imp, &casing);
+}
