@@ -16,7 +16,8 @@
 //!   set names are case-insensitive; `**` starts a comment line.
 //!
 //! Every reader streams its file line by line and every error names the file and, where it
-//! applies, the 1-based line.
+//! applies, the 1-based line. A last line with text but no end of line is refused as a cut
+//! (truncated) file, in every text format.
 
 use crate::model::component::{
     ComponentError, ComponentMatrices, ComponentReductionOptions, ContactPoint, NodeDof,
@@ -134,6 +135,7 @@ impl LineReader {
     }
 
     /// The next line without its end-of-line characters, or `None` at the end of the file.
+    /// A last line with text but no newline is refused: that is how a cut file ends.
     pub fn next_line(&mut self) -> Result<Option<Line<'_>>, ImportError> {
         self.buf.clear();
         let n = self
@@ -153,10 +155,16 @@ impl LineReader {
         }
         let text = std::str::from_utf8(&self.buf)
             .map_err(|_| ImportError::line(&self.path, self.line, "not valid UTF-8 text"))?;
+        if !self.complete && !text.trim().is_empty() {
+            return Err(ImportError::line(
+                &self.path,
+                self.line,
+                "last line has no end of line: truncated file (end a complete file with a newline)",
+            ));
+        }
         Ok(Some(Line {
             text,
             no: self.line,
-            complete: self.complete,
             path: &self.path,
         }))
     }
@@ -172,8 +180,6 @@ pub(crate) struct Line<'a> {
     pub text: &'a str,
     /// 1-based line number.
     pub no: usize,
-    /// Whether the line ended with a newline.
-    pub complete: bool,
     path: &'a Path,
 }
 
@@ -266,7 +272,8 @@ impl TriangleBuilder {
         Ok(())
     }
 
-    /// Full-storage matrix scaled by `factor`; every diagonal entry must be present and positive.
+    /// Full-storage matrix scaled by `factor`; every diagonal entry must be present and
+    /// positive, every scaled value finite.
     pub fn finish(
         mut self,
         path: &Path,
@@ -275,6 +282,17 @@ impl TriangleBuilder {
         let mut diag = vec![false; self.n];
         for e in self.entries.iter_mut() {
             e.2 *= factor;
+            if !e.2.is_finite() {
+                return Err(ImportError::file(
+                    path,
+                    format!(
+                        "entry ({}, {}) = {} overflows in SI units (× {factor})",
+                        e.0 + 1,
+                        e.1 + 1,
+                        e.2 / factor
+                    ),
+                ));
+            }
             if e.0 == e.1 {
                 if e.2 <= 0.0 {
                     return Err(ImportError::file(
@@ -373,9 +391,6 @@ pub fn read_matrix_storage(
         let Some(first) = it.next() else {
             continue;
         };
-        if !l.complete {
-            return Err(l.err("last line has no end of line: truncated file"));
-        }
         let (r, c, v) = parse_entry(std::iter::once(first).chain(it), n).map_err(|e| l.err(e))?;
         tri.push(r, c, v).map_err(|e| l.err(e))?;
     }
@@ -398,10 +413,38 @@ enum Block {
     Other,
 }
 
-/// Reads `*NODE` and `*NSET` data from a CalculiX deck, following `*INCLUDE`s.
+/// Most node ids all the node sets of a deck may hold together (repeats included), a bound
+/// on the memory a deck can claim: a set naming itself doubles on every line and a
+/// `GENERATE` range may announce 10¹⁹ ids. 2²⁴ ≈ 16.8 M is far above real models.
+pub const MAX_SET_IDS: usize = 1 << 24;
+
+/// Most files one deck may read through `*INCLUDE`s (the same file included repeatedly
+/// counts each time), a bound on the work of includes fanning out.
+pub const MAX_INCLUDES: usize = 1000;
+
+/// State of a deck read, across its `*INCLUDE`s.
+struct Deck<'m> {
+    mesh: &'m mut CalculixMesh,
+    /// The files being read, outermost first (canonical paths when they resolve).
+    stack: Vec<PathBuf>,
+    /// Files read so far.
+    files: usize,
+    /// Node ids held by all node sets.
+    set_ids: usize,
+}
+
+/// Reads `*NODE` and `*NSET` data from a CalculiX deck, following `*INCLUDE`s (at most 16
+/// deep and [`MAX_INCLUDES`] files, no file including itself; node sets hold at most
+/// [`MAX_SET_IDS`] ids in all).
 pub fn read_calculix_mesh(path: &Path) -> Result<CalculixMesh, ImportError> {
     let mut mesh = CalculixMesh::default();
-    read_deck(path, &mut mesh, 0)?;
+    let mut deck = Deck {
+        mesh: &mut mesh,
+        stack: Vec::new(),
+        files: 0,
+        set_ids: 0,
+    };
+    read_deck(path, &mut deck)?;
     Ok(mesh)
 }
 
@@ -415,48 +458,34 @@ fn keyword_param(parts: &[&str], key: &str) -> Option<String> {
     })
 }
 
-fn read_deck(path: &Path, mesh: &mut CalculixMesh, depth: usize) -> Result<(), ImportError> {
-    if depth > 16 {
+fn read_deck(path: &Path, deck: &mut Deck<'_>) -> Result<(), ImportError> {
+    if deck.stack.len() > 16 {
         return Err(ImportError::file(path, "*INCLUDE nested more than 16 deep"));
     }
+    deck.files += 1;
+    if deck.files > MAX_INCLUDES {
+        return Err(ImportError::file(
+            path,
+            format!("the deck reads more than {MAX_INCLUDES} files through *INCLUDE"),
+        ));
+    }
     let mut rd = LineReader::open(path)?;
+    let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    if deck.stack.contains(&key) {
+        return Err(ImportError::file(
+            path,
+            "*INCLUDE cycle: this file includes itself (directly or through other files)",
+        ));
+    }
+    deck.stack.push(key);
     let mut block = Block::Other;
     while let Some(l) = rd.next_line()? {
-        let line = l.text;
-        let t = line.trim();
+        let t = l.text.trim();
         if t.is_empty() || t.starts_with("**") {
             continue;
         }
         if let Some(kw) = t.strip_prefix('*') {
-            let parts: Vec<&str> = kw.split(',').collect();
-            let name = parts[0].trim().to_ascii_uppercase();
-            block = match name.as_str() {
-                "NODE" => Block::Node(keyword_param(&parts, "NSET").map(|s| s.to_uppercase())),
-                "NSET" => {
-                    let Some(set) = keyword_param(&parts, "NSET") else {
-                        return Err(l.err("*NSET without NSET=name"));
-                    };
-                    let generate = parts[1..]
-                        .iter()
-                        .any(|p| p.trim().eq_ignore_ascii_case("GENERATE"));
-                    let set = set.to_uppercase();
-                    mesh.node_sets.entry(set.clone()).or_default();
-                    Block::Nset {
-                        name: set,
-                        generate,
-                    }
-                }
-                "INCLUDE" => {
-                    let Some(file) = keyword_param(&parts, "INPUT") else {
-                        return Err(l.err("*INCLUDE without INPUT=file"));
-                    };
-                    let file = file.trim_matches('"');
-                    let inc = path.parent().unwrap_or(Path::new(".")).join(file);
-                    read_deck(&inc, mesh, depth + 1)?;
-                    Block::Other
-                }
-                _ => Block::Other,
-            };
+            block = keyword(path, &l, kw, deck)?;
             continue;
         }
         let fields: Vec<&str> = t
@@ -465,71 +494,143 @@ fn read_deck(path: &Path, mesh: &mut CalculixMesh, depth: usize) -> Result<(), I
             .filter(|f| !f.is_empty())
             .collect();
         match &block {
-            Block::Node(set) => {
-                let id: usize = fields
-                    .first()
-                    .and_then(|f| f.parse().ok())
-                    .filter(|&id| id > 0)
-                    .ok_or_else(|| l.err(format!("expected 'id, x, y, z', found '{t}'")))?;
-                let mut x = [0.0; 3];
-                if fields.len() > 4 {
-                    return Err(l.err(format!("node {id}: more than 3 coordinates")));
-                }
-                for (k, f) in fields[1..].iter().enumerate() {
-                    x[k] = parse_value(Some(f), "coordinate").map_err(|e| l.err(e))?;
-                }
-                if mesh.nodes.insert(id, x).is_some() {
-                    return Err(l.err(format!("node {id} defined twice")));
-                }
-                if let Some(s) = set {
-                    mesh.node_sets.entry(s.clone()).or_default().push(id);
-                }
-            }
+            Block::Node(set) => node_line(&l, t, &fields, set.as_deref(), deck.mesh)?,
             Block::Nset { name, generate } => {
-                let mut add = Vec::new();
-                if *generate {
-                    let nums: Vec<usize> = fields
-                        .iter()
-                        .map(|f| f.parse::<usize>())
-                        .collect::<Result<_, _>>()
-                        .map_err(|_| {
-                            l.err(format!("expected 'first, last[, step]', found '{t}'"))
-                        })?;
-                    let (a, b, s) = match nums[..] {
-                        [a, b] => (a, b, 1),
-                        [a, b, s] => (a, b, s),
-                        _ => {
-                            return Err(
-                                l.err(format!("expected 'first, last[, step]', found '{t}'"))
-                            );
-                        }
-                    };
-                    if s == 0 || b < a {
-                        return Err(l.err(format!("invalid GENERATE range '{t}'")));
-                    }
-                    add.extend((a..=b).step_by(s));
-                } else {
-                    for f in &fields {
-                        match f.parse::<usize>() {
-                            Ok(id) => add.push(id),
-                            Err(_) => {
-                                let other =
-                                    mesh.node_sets.get(&f.to_uppercase()).ok_or_else(|| {
-                                        l.err(format!(
-                                            "'{f}' is neither a node id nor a known node set"
-                                        ))
-                                    })?;
-                                add.extend_from_slice(other);
-                            }
-                        }
-                    }
-                }
-                mesh.node_sets.entry(name.clone()).or_default().extend(add);
+                let budget = MAX_SET_IDS - deck.set_ids;
+                let add = nset_line(&l, t, &fields, *generate, &deck.mesh.node_sets, budget)?;
+                deck.set_ids += add.len();
+                deck.mesh
+                    .node_sets
+                    .entry(name.clone())
+                    .or_default()
+                    .extend(add);
             }
             Block::Other => {}
         }
     }
+    deck.stack.pop();
     Ok(())
+}
+
+/// The block a keyword line `*kw` (without its star) opens; reads an `*INCLUDE`d file.
+fn keyword(path: &Path, l: &Line<'_>, kw: &str, deck: &mut Deck<'_>) -> Result<Block, ImportError> {
+    let parts: Vec<&str> = kw.split(',').collect();
+    let name = parts[0].trim().to_ascii_uppercase();
+    Ok(match name.as_str() {
+        "NODE" => Block::Node(keyword_param(&parts, "NSET").map(|s| s.to_uppercase())),
+        "NSET" => {
+            let Some(set) = keyword_param(&parts, "NSET") else {
+                return Err(l.err("*NSET without NSET=name"));
+            };
+            let generate = parts[1..]
+                .iter()
+                .any(|p| p.trim().eq_ignore_ascii_case("GENERATE"));
+            let set = set.to_uppercase();
+            deck.mesh.node_sets.entry(set.clone()).or_default();
+            Block::Nset {
+                name: set,
+                generate,
+            }
+        }
+        "INCLUDE" => {
+            let Some(file) = keyword_param(&parts, "INPUT") else {
+                return Err(l.err("*INCLUDE without INPUT=file"));
+            };
+            let file = file.trim_matches('"');
+            let inc = path.parent().unwrap_or(Path::new(".")).join(file);
+            read_deck(&inc, deck)?;
+            Block::Other
+        }
+        _ => Block::Other,
+    })
+}
+
+/// One `id, x[, y[, z]]` line of a `*NODE` block (missing coordinates are 0), added to
+/// `mesh` and to the node set `set`.
+fn node_line(
+    l: &Line<'_>,
+    t: &str,
+    fields: &[&str],
+    set: Option<&str>,
+    mesh: &mut CalculixMesh,
+) -> Result<(), ImportError> {
+    let id: usize = fields
+        .first()
+        .and_then(|f| f.parse().ok())
+        .filter(|&id| id > 0)
+        .ok_or_else(|| l.err(format!("expected 'id, x, y, z', found '{t}'")))?;
+    let mut x = [0.0; 3];
+    if fields.len() > 4 {
+        return Err(l.err(format!("node {id}: more than 3 coordinates")));
+    }
+    for (k, f) in fields[1..].iter().enumerate() {
+        x[k] = parse_value(Some(f), "coordinate").map_err(|e| l.err(e))?;
+    }
+    if mesh.nodes.insert(id, x).is_some() {
+        return Err(l.err(format!("node {id} defined twice")));
+    }
+    if let Some(s) = set {
+        mesh.node_sets.entry(s.to_string()).or_default().push(id);
+    }
+    Ok(())
+}
+
+/// The node ids of one data line of a `*NSET` block: ids and names of earlier sets, or
+/// `first, last[, step]` with `GENERATE`; more than `budget` ids is an error.
+fn nset_line(
+    l: &Line<'_>,
+    t: &str,
+    fields: &[&str],
+    generate: bool,
+    sets: &HashMap<String, Vec<usize>>,
+    budget: usize,
+) -> Result<Vec<usize>, ImportError> {
+    let too_many = || {
+        l.err(format!(
+            "the node sets would hold more than {MAX_SET_IDS} node ids \
+             (a set including itself, or a huge GENERATE range?)"
+        ))
+    };
+    let mut add = Vec::new();
+    if generate {
+        let bad = || l.err(format!("expected 'first, last[, step]', found '{t}'"));
+        let nums: Vec<usize> = fields
+            .iter()
+            .map(|f| f.parse::<usize>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| bad())?;
+        let (a, b, s) = match nums[..] {
+            [a, b] => (a, b, 1),
+            [a, b, s] => (a, b, s),
+            _ => return Err(bad()),
+        };
+        if s == 0 || b < a {
+            return Err(l.err(format!("invalid GENERATE range '{t}'")));
+        }
+        if (b - a) / s >= budget {
+            return Err(too_many());
+        }
+        add.extend((a..=b).step_by(s));
+        return Ok(add);
+    }
+    for f in fields {
+        match f.parse::<usize>() {
+            Ok(id) => add.push(id),
+            Err(_) => {
+                let other = sets.get(&f.to_uppercase()).ok_or_else(|| {
+                    l.err(format!("'{f}' is neither a node id nor a known node set"))
+                })?;
+                if add.len() + other.len() > budget {
+                    return Err(too_many());
+                }
+                add.extend_from_slice(other);
+            }
+        }
+    }
+    if add.len() > budget {
+        return Err(too_many());
+    }
+    Ok(add)
 }
 
 /// How the contact nodes are chosen; their order is the row order (leading → trailing edge).
@@ -914,6 +1015,91 @@ pub(crate) mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("job.dof") && e.contains("1.3"), "{e}");
+    }
+
+    // Regressions found by tests/readers_never_panic.rs.
+
+    #[test]
+    fn cut_last_line_is_rejected_by_every_reader() {
+        // A file cut inside its last line was read as if complete ("-20.0" read as "-2").
+        let d = scratch("cut");
+        let deck = write(&d, "cut.inp", "*NODE\n1, 0.0, 0.0, -2");
+        let (f, line, why) = line_err(read_calculix_mesh(&deck).unwrap_err());
+        assert_eq!((f.as_str(), line), ("cut.inp", 2));
+        assert!(why.contains("truncated"), "{why}");
+        let dof = write(&d, "cut.dof", "3.1\n3.2\n13.3");
+        let (f, line, why) = line_err(read_dof_map(&dof).unwrap_err());
+        assert_eq!((f.as_str(), line), ("cut.dof", 3));
+        assert!(why.contains("truncated"), "{why}");
+        // Trailing blanks without a newline are not a cut.
+        let dof = write(&d, "blank.dof", "3.1\n3.2\n  ");
+        assert_eq!(read_dof_map(&dof).unwrap().len(), 2);
+    }
+
+    #[test]
+    fn scaled_value_overflow_is_rejected() {
+        // 1e306 t became inf kg (× 1e3) and was accepted.
+        let d = scratch("ovf");
+        let p = write(&d, "o.mas", "1 1 1e306\n");
+        let e = read_matrix_storage(&p, 1, 1e3).unwrap_err().to_string();
+        assert!(e.contains("o.mas") && e.contains("overflows"), "{e}");
+    }
+
+    #[test]
+    fn generate_range_beyond_the_set_budget_is_rejected() {
+        // `1, 18446744073709551615` with GENERATE filled memory (10¹⁹ ids): the range is
+        // now counted first. Just above the budget, so the test stays small without the fix.
+        let d = scratch("gen");
+        let text = format!("*NSET, NSET=G, GENERATE\n1, {}\n", MAX_SET_IDS + 1);
+        let p = write(&d, "gen.inp", &text);
+        let (f, line, why) = line_err(read_calculix_mesh(&p).unwrap_err());
+        assert_eq!((f.as_str(), line), ("gen.inp", 2));
+        assert!(why.contains("more than"), "{why}");
+        let p = write(&d, "ok.inp", "*NSET, NSET=G, GENERATE\n1, 9, 4\n");
+        assert_eq!(read_calculix_mesh(&p).unwrap().node_sets["G"], [1, 5, 9]);
+    }
+
+    #[test]
+    fn self_doubling_node_set_is_rejected() {
+        // A set naming itself doubles on every line: 64 lines claimed 2⁶⁴ ids.
+        let d = scratch("dbl");
+        let text = format!("*NSET, NSET=A\n1\n{}", "A\n".repeat(64));
+        let p = write(&d, "dbl.inp", &text);
+        let (f, line, why) = line_err(read_calculix_mesh(&p).unwrap_err());
+        assert_eq!((f.as_str(), line), ("dbl.inp", 27));
+        assert!(why.contains("more than"), "{why}");
+    }
+
+    #[test]
+    fn include_cycle_is_rejected() {
+        // A file including itself was read 16 levels deep, k¹⁶ times with k such lines.
+        let d = scratch("cyc");
+        let p = write(&d, "self.inp", "*INCLUDE, INPUT=self.inp\n");
+        let e = read_calculix_mesh(&p).unwrap_err().to_string();
+        assert!(e.contains("self.inp") && e.contains("cycle"), "{e}");
+        write(&d, "b.inp", "*INCLUDE, INPUT=a.inp\n");
+        let a = write(&d, "a.inp", "*INCLUDE, INPUT=b.inp\n");
+        let e = read_calculix_mesh(&a).unwrap_err().to_string();
+        assert!(e.contains("a.inp") && e.contains("cycle"), "{e}");
+    }
+
+    #[test]
+    fn include_fan_out_is_bounded() {
+        // Distinct files each including the next ten times: 1 + 10 + 100 + 1000 reads.
+        let d = scratch("fan");
+        write(&d, "d.inp", "** leaf\n");
+        for (f, next) in [("c.inp", "d.inp"), ("b.inp", "c.inp"), ("a.inp", "b.inp")] {
+            write(&d, f, &format!("*INCLUDE, INPUT={next}\n").repeat(10));
+        }
+        let e = read_calculix_mesh(&d.join("a.inp"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!("more than {MAX_INCLUDES} files")),
+            "{e}"
+        );
+        // One level less is fine.
+        assert!(read_calculix_mesh(&d.join("b.inp")).is_ok());
     }
 
     #[test]

@@ -92,7 +92,10 @@ pub fn read_matrix_market(
             "the matrix has order {rows} but the DOF map has {n} rows"
         )));
     }
-    let mut tri = TriangleBuilder::new(n, if symmetric { nnz } else { 0 });
+    // Reserve for the announced entries, but no more than the file can hold (an entry line
+    // takes at least 6 bytes): a corrupt size line must not claim memory.
+    let fits = std::fs::metadata(path).map_or(0, |m| m.len() / 6) as usize;
+    let mut tri = TriangleBuilder::new(n, if symmetric { nnz.min(fits) } else { 0 });
     let mut general: Vec<(u32, u32, f64)> = Vec::new();
     let mut lines: Vec<usize> = Vec::new();
     let mut count = 0usize;
@@ -109,6 +112,9 @@ pub fn read_matrix_market(
         if symmetric {
             tri.push(r, c, v).map_err(|e| l.err(e))?;
         } else {
+            if !(v * factor).is_finite() {
+                return Err(l.err(format!("value {v} overflows in SI units (× {factor})")));
+            }
             general.push((r as u32, c as u32, v * factor));
             lines.push(l.no);
         }
@@ -496,6 +502,51 @@ mod tests {
                 .2
                 .contains("out of range")
         );
+    }
+
+    // Regressions found by tests/readers_never_panic.rs.
+
+    #[test]
+    fn size_line_claiming_huge_count_reserves_nothing() {
+        // `4 4 1000000000000` reserved 16 TB for the entries (allocation failure, abort).
+        let d = scratch("mm-huge");
+        let p = write(
+            &d,
+            "h.mtx",
+            "%%MatrixMarket matrix coordinate real symmetric\n1 1 1000000000000\n1 1 2.0\n",
+        );
+        let (f, line, why) = line_err(read_matrix_market(&p, 1, 1.0).unwrap_err());
+        assert_eq!((f.as_str(), line), ("h.mtx", 3));
+        assert!(why.contains("1 of the 1000000000000"), "{why}");
+    }
+
+    #[test]
+    fn cut_files_are_rejected() {
+        // Cut inside the last line: "3.25" read as "3.2", "-20" as "-2".
+        let d = scratch("mm-cut");
+        let hdr = "%%MatrixMarket matrix coordinate real general\n";
+        let p = write(&d, "c.mtx", &format!("{hdr}1 1 1\n1 1 3.2"));
+        let (f, line, why) = line_err(read_matrix_market(&p, 1, 1.0).unwrap_err());
+        assert_eq!((f.as_str(), line), ("c.mtx", 3));
+        assert!(why.contains("truncated"), "{why}");
+        let p = write(&d, "n.txt", "1 0 0 0\n2 1 0 -2");
+        let (_, line, why) = line_err(read_node_table(&p).unwrap_err());
+        assert!(line == 2 && why.contains("truncated"), "{why}");
+        let p = write(&d, "d.txt", "1 1\n1 2\n12 3");
+        let (_, line, why) = line_err(read_dof_list(&p).unwrap_err());
+        assert!(line == 3 && why.contains("truncated"), "{why}");
+    }
+
+    #[test]
+    fn scaled_value_overflow_is_rejected() {
+        // 1e306 N/mm became inf N/m (× 1e3) and was accepted.
+        let d = scratch("mm-ovf");
+        for sym in ["symmetric", "general"] {
+            let text = format!("%%MatrixMarket matrix coordinate real {sym}\n1 1 1\n1 1 1e306\n");
+            let p = write(&d, "o.mtx", &text);
+            let e = read_matrix_market(&p, 1, 1e3).unwrap_err().to_string();
+            assert!(e.contains("o.mtx") && e.contains("overflows"), "{sym}: {e}");
+        }
     }
 
     #[test]

@@ -118,11 +118,8 @@ pub fn to_bytes(rom: &CyclicRom) -> Result<Vec<u8>, safetensors::SafeTensorError
     for (k, md) in rom.modal_data.iter().enumerate() {
         let n_omega = md.omega.len();
         let n_p = md.frequencies.first().map_or(0, Vec::len);
-        let n_s = md
-            .shapes_re
-            .first()
-            .and_then(|s| s.first())
-            .map_or(0, Vec::len);
+        // The reader expects 3 n_c values a shape, also when there is no shape to measure.
+        let n_s = 3 * nodes.len();
         push(
             format!("modal.{k}.omega"),
             vec![n_omega],
@@ -232,6 +229,16 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
     };
 
     let n_c = meta.contact_rows.len();
+    if let Some((i, r)) = meta
+        .contact_rows
+        .iter()
+        .enumerate()
+        .find(|(_, r)| **r >= n_c)
+    {
+        return Err(layout(format!(
+            "metadata contact_rows[{i}] = {r}: a row index must be below the number of contact nodes ({n_c})"
+        )));
+    }
     let positions = tensor("contact_nodes.position", &[n_c, 3])?;
     let contact_nodes = meta
         .contact_rows
@@ -253,7 +260,11 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
     }
     let mut harmonics = Vec::with_capacity(kmax + 1);
     for (k, &n_modes) in meta.modes_per_diameter.iter().enumerate() {
-        let n = 3 * n_c + n_modes;
+        let n = n_modes.checked_add(3 * n_c).ok_or_else(|| {
+            layout(format!(
+                "metadata modes_per_diameter[{k}] = {n_modes} is too large"
+            ))
+        })?;
         let read = |name: &str| -> Result<HermitianMatrix, RomFileError> {
             let part = |p: &str| {
                 tensor(&format!("harmonic.{k}.{name}.{p}"), &[n, n])
@@ -281,20 +292,23 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
             .unwrap_or(0);
         let freqs = tensor(&name, &[n_omega, n_p])?;
         let n_s = 3 * n_c;
+        // The shape checks bound n_omega (the omega tensor holds n_omega values), so the
+        // loops below are as long as the file; any of n_p, n_s may be 0.
         let shapes = |p: &str| -> Result<Vec<Vec<Vec<f64>>>, RomFileError> {
             let flat = tensor(&format!("modal.{k}.shapes.{p}"), &[n_omega, n_p, n_s])?;
-            Ok(flat
-                .chunks(n_p * n_s)
-                .map(|w| w.chunks(n_s).map(<[f64]>::to_vec).collect())
+            Ok((0..n_omega)
+                .map(|o| {
+                    (0..n_p)
+                        .map(|q| flat[(o * n_p + q) * n_s..][..n_s].to_vec())
+                        .collect()
+                })
                 .collect())
         };
         modal_data.push(ModalData {
             nodal_diameter: k,
             omega,
-            frequencies: freqs
-                .chunks(n_p.max(1))
-                .map(<[f64]>::to_vec)
-                .take(n_omega)
+            frequencies: (0..n_omega)
+                .map(|o| freqs[o * n_p..][..n_p].to_vec())
                 .collect(),
             shapes_re: shapes("re")?,
             shapes_im: shapes("im")?,
@@ -436,6 +450,98 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("format"), "{err}");
+    }
+
+    /// `bytes` (a ROM file) with its `rom` metadata JSON changed by `edit`.
+    fn with_meta(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+        let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+        let mut header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+        let info = &mut header["__metadata__"]["rom"];
+        let mut meta: serde_json::Value = serde_json::from_str(info.as_str().unwrap()).unwrap();
+        edit(&mut meta);
+        *info = serde_json::Value::String(meta.to_string());
+        let text = header.to_string();
+        let mut out = (text.len() as u64).to_le_bytes().to_vec();
+        out.extend_from_slice(text.as_bytes());
+        out.extend_from_slice(&bytes[8 + n..]);
+        out
+    }
+
+    // Regressions found by tests/readers_never_panic.rs.
+
+    #[test]
+    fn huge_modes_per_diameter_is_rejected_not_overflowed() {
+        // `3 n_c + n_modes` overflowed (panic in debug, wrong size in release).
+        let bytes = with_meta(&to_bytes(&sample_rom()).unwrap(), |m| {
+            m["modes_per_diameter"][1] = serde_json::json!(u64::MAX);
+        });
+        let err = from_bytes(&bytes, Path::new("big.rom"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("big.rom:") && err.contains("modes_per_diameter[1]"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn contact_row_beyond_the_contact_nodes_is_rejected() {
+        // A corrupt row index was accepted, then sized per-row arrays in the simulation.
+        let bytes = with_meta(&to_bytes(&sample_rom()).unwrap(), |m| {
+            m["contact_rows"][1] = serde_json::json!(1u64 << 40);
+        });
+        let err = from_bytes(&bytes, Path::new("row.rom"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("row.rom:") && err.contains("contact_rows[1]"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn modal_data_without_frequencies_round_trips() {
+        // `chunks(n_p * n_s)` panicked on n_p = 0 (no frequency per speed, or no speed).
+        let mut rom = sample_rom();
+        rom.modal_data[0] = ModalData {
+            nodal_diameter: 0,
+            omega: vec![],
+            frequencies: vec![],
+            shapes_re: vec![],
+            shapes_im: vec![],
+        };
+        let back = from_bytes(&to_bytes(&rom).unwrap(), Path::new("m.rom")).unwrap();
+        assert_eq!(back, rom);
+        rom.modal_data[0] = ModalData {
+            nodal_diameter: 0,
+            omega: vec![0.0, 10.0],
+            frequencies: vec![vec![]; 2],
+            shapes_re: vec![vec![]; 2],
+            shapes_im: vec![vec![]; 2],
+        };
+        let back = from_bytes(&to_bytes(&rom).unwrap(), Path::new("m.rom")).unwrap();
+        assert_eq!(back, rom);
+    }
+
+    #[test]
+    fn rom_without_contact_nodes_is_rejected() {
+        // n_s = 3 n_c = 0: `chunks(0)` panicked before the model was validated.
+        let mut rom = sample_rom();
+        rom.contact_nodes.clear();
+        let one = HermitianMatrix::real(DMatrix::identity(1, 1));
+        for h in &mut rom.harmonics {
+            h.mass = one.clone();
+            h.stiffness = [one.clone(), one.clone(), one.clone()];
+        }
+        rom.modal_data[0].shapes_re = vec![vec![vec![]; 2]; 2];
+        rom.modal_data[0].shapes_im = vec![vec![vec![]; 2]; 2];
+        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("nc.rom"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("nc.rom:") && err.contains("contact"),
+            "{err}"
+        );
     }
 
     #[test]
