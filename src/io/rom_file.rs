@@ -173,16 +173,13 @@ fn row_major(m: &DMatrix<f64>) -> impl Iterator<Item = f64> + '_ {
     (0..m.nrows()).flat_map(move |i| (0..m.ncols()).map(move |j| m[(i, j)]))
 }
 
-/// Parses and validates the safetensors bytes of a ROM; `path` only labels errors.
-pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> {
+/// The `rom` metadata of a ROM file's header, after the `format` and `format_version` checks;
+/// contact rows must be below the number of contact nodes.
+fn read_meta(bytes: &[u8], path: &Path) -> Result<RomMeta, RomFileError> {
     let layout = |reason: String| RomFileError::Layout {
         path: path.into(),
         reason,
     };
-    let st = SafeTensors::deserialize(bytes).map_err(|source| RomFileError::Container {
-        path: path.into(),
-        source,
-    })?;
     let (_, header) =
         SafeTensors::read_metadata(bytes).map_err(|source| RomFileError::Container {
             path: path.into(),
@@ -206,6 +203,31 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
     let meta: RomMeta =
         serde_json::from_str(meta_json).map_err(|e| layout(format!("metadata `rom`: {e}")))?;
 
+    let n_c = meta.contact_rows.len();
+    if let Some((i, r)) = meta
+        .contact_rows
+        .iter()
+        .enumerate()
+        .find(|(_, r)| **r >= n_c)
+    {
+        return Err(layout(format!(
+            "metadata contact_rows[{i}] = {r}: a row index must be below the number of contact nodes ({n_c})"
+        )));
+    }
+    Ok(meta)
+}
+
+/// Parses and validates the safetensors bytes of a ROM; `path` only labels errors.
+pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> {
+    let layout = |reason: String| RomFileError::Layout {
+        path: path.into(),
+        reason,
+    };
+    let st = SafeTensors::deserialize(bytes).map_err(|source| RomFileError::Container {
+        path: path.into(),
+        source,
+    })?;
+    let meta = read_meta(bytes, path)?;
     let tensor = |name: &str, shape: &[usize]| -> Result<Vec<f64>, RomFileError> {
         let t = st
             .tensor(name)
@@ -229,16 +251,6 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
     };
 
     let n_c = meta.contact_rows.len();
-    if let Some((i, r)) = meta
-        .contact_rows
-        .iter()
-        .enumerate()
-        .find(|(_, r)| **r >= n_c)
-    {
-        return Err(layout(format!(
-            "metadata contact_rows[{i}] = {r}: a row index must be below the number of contact nodes ({n_c})"
-        )));
-    }
     let positions = tensor("contact_nodes.position", &[n_c, 3])?;
     let contact_nodes = meta
         .contact_rows
