@@ -252,9 +252,8 @@ struct FlexibleCasing {
     frames: CasingFrames,
     /// Radial unit vector of each contact node of sector 0.
     radial: Vec<Vector3<f64>>,
-    /// Contact-node displacements (probes) and corrected channels (residual check), scratch.
+    /// Contact-node displacements (m, sector-major) of the casing probes, scratch.
     nodes: Vec<f64>,
-    corrected: Vec<f64>,
 }
 
 /// The casing in the time loop: its spline surface (eqs. 5–13) and, when flexible, its kernel.
@@ -333,7 +332,6 @@ impl CasingSide {
                         .map(|c| radial(&c.position))
                         .collect(),
                     nodes: vec![0.0; n_sectors * 3 * rows],
-                    corrected: vec![],
                 })
             }
             _ => None,
@@ -369,14 +367,12 @@ impl CasingSide {
         if let Some(FlexibleCasing {
             kernel: Kernel::Modal { kernel, .. },
             frames,
-            corrected,
             ..
         }) = self.flexible.as_mut()
         {
             frames.surface = kernel
                 .map_to_surface(&self.spline)
                 .map_err(SimError::Spline)?;
-            *corrected = vec![0.0; kernel.n_sectors() * kernel.n_boundary()];
         }
         Ok(())
     }
@@ -976,7 +972,8 @@ impl<'a> Simulation<'a> {
     /// The casing's share of box 5. The fast kernel corrects its state without refreshing its
     /// channels: the next step sees the Lagrange loads through the control-point flexibility
     /// ([`PastSurface`]), on every step alike, so that what is recorded never changes the
-    /// state. On sample steps the corrected surface is synthesised aside for the residual check.
+    /// state. On sample steps the corrected channels are synthesised too, into a surface kept aside
+    /// for the residual check.
     fn correct_casing(&mut self, next_load: f64) -> Result<(), SimError> {
         let c = &mut self.contact;
         let cs = &mut self.casing;
@@ -1003,20 +1000,18 @@ impl<'a> Simulation<'a> {
         if !lazy {
             f.kernel.get_mut().correct_then_predict(&c.fc, next_load);
             cs.refresh()?;
+        } else if self.sample_step {
+            // The same state as `correct_state_then_predict`, and the corrected channels in
+            // the same pass: the corrected surface, aside, for the residual check.
+            let k = f.kernel.get_mut();
+            k.correct_then_predict(&c.fc, next_load);
+            f.frames.control_points(
+                &cs.spline,
+                k.boundary(),
+                &mut cs.pnodes,
+                &mut cs.q_corrected,
+            )?;
         } else {
-            if self.sample_step {
-                let k = f.kernel.get_mut();
-                k.response(&c.fc, &mut f.corrected);
-                for (x, u) in f.corrected.iter_mut().zip(k.boundary()) {
-                    *x += u;
-                }
-                f.frames.control_points(
-                    &cs.spline,
-                    &f.corrected,
-                    &mut cs.pnodes,
-                    &mut cs.q_corrected,
-                )?;
-            }
             f.kernel
                 .get_mut()
                 .correct_state_then_predict(&c.fc, next_load);
