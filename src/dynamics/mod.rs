@@ -27,6 +27,6 @@ pub mod synthetic;
 pub use numerics::{KernelChoice, Numerics};
 pub use probes::SimulationOutput;
 pub use scenario::{
-    Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad, RigidCasing, RigidShape,
+    Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad, RigidShape, RigidSurface,
 };
 pub use simulate::{SimError, simulate};
