@@ -235,8 +235,7 @@ pub fn simulate(
         },
         Path::to_path_buf,
     );
-    timeseries::write(&dir.join("timeseries.parquet"), &timeseries_columns(&out))
-        .map_err(anyhow::Error::from)?;
+    timeseries::write(&dir.join("timeseries.parquet"), &timeseries_columns(&out))?;
     let summary = serde_json::json!({
         "job_id": job.id,
         "case": case,

@@ -139,7 +139,7 @@ pub fn valid_speed_range(rom: &CyclicRom) -> Option<(f64, f64)> {
     let (lo, hi) = speeds.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), w| {
         (a.min(w), b.max(w))
     });
-    (depends && lo <= hi).then(|| (lo, hi * (1.0 + SPEED_EXTRAPOLATION)))
+    (depends && lo <= hi).then_some((lo, hi * (1.0 + SPEED_EXTRAPOLATION)))
 }
 
 fn issue(path: impl Into<String>, reason: impl Into<String>) -> SpecIssue {
@@ -231,8 +231,8 @@ fn check_speeds_and_step(
             issues.push(issue(
                 speed_pointer(spec, i),
                 format!(
-                    "Ω = {omega:.6} rad/s is outside the impeller ROM's valid speed range \
-                     [{lo}, {hi:.6}] rad/s (its modal data are tabulated up to {:.6} rad/s, \
+                    "Ω = {omega} rad/s is outside the impeller ROM's valid speed range \
+                     [{lo}, {hi:.1}] rad/s (its modal data are tabulated up to {:.1} rad/s, \
                      +{:.0} % extrapolation allowed)",
                     hi / (1.0 + SPEED_EXTRAPOLATION),
                     100.0 * SPEED_EXTRAPOLATION
@@ -273,7 +273,7 @@ fn check_speeds_and_step(
             "/numerics/time_step_s",
             format!(
                 "h = {h:.4e} s is at or above the explicit stability limit 2/ω_max = {limit:.4e} s \
-                 of the {which} at Ω = {omega:.6} rad/s; use time_step_s < {limit:.4e}"
+                 of the {which} at Ω = {omega} rad/s; use time_step_s < {limit:.4e}"
             ),
         ));
     }
