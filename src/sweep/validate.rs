@@ -375,4 +375,78 @@ mod tests {
             "{hi}"
         );
     }
+
+    /// A synthetic impeller whose K(Ω) = K0 + Ω² K1 loses definiteness at Ω = 1000 rad/s,
+    /// tabulated up to 2000 rad/s (so the range check passes and the eigenvalue check acts).
+    fn softening_impeller() -> CyclicRom {
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::{Component, ModalData};
+        let mut rom = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 4, 2, 2));
+        for h in &mut rom.harmonics {
+            h.stiffness[1].re = &h.stiffness[0].re * (-1.0 / (1000.0f64 * 1000.0));
+            h.stiffness[1].im = &h.stiffness[0].im * (-1.0 / (1000.0f64 * 1000.0));
+            h.stiffness[2].re.fill(0.0);
+            h.stiffness[2].im.fill(0.0);
+        }
+        rom.modal_data = vec![ModalData {
+            nodal_diameter: 0,
+            omega: vec![0.0, 2000.0],
+            frequencies: vec![vec![1.0]; 2],
+            shapes_re: vec![vec![]; 2],
+            shapes_im: vec![vec![]; 2],
+        }];
+        rom
+    }
+
+    fn rigid_spec(speeds: &[f64], h: f64) -> SweepSpec {
+        crate::sweep::spec::spec_from_value(serde_json::json!({
+            "name": "t",
+            "models": {"impeller": {"rom": "x.rom"}, "casing": {"rigid": {"lobes": 2, "amplitude_m": 1e-4}}},
+            "scenario": {"duration_s": 0.01},
+            "numerics": {"time_step_s": h},
+            "grid": {"speed": {"unit": "rad_s", "values": speeds}, "friction": [0.1]}
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn indefinite_stiffness_and_unstable_step_name_the_speed_and_the_limit() {
+        let imp = softening_impeller();
+        let casing = ResolvedCasing::Rigid(RigidCasing {
+            lobes: 2,
+            amplitude_m: 1e-4,
+            gap_offsets_m: None,
+        });
+        let limit = Structure::new(&imp, 500.0).unwrap().stability_limit();
+        // Below 1000 rad/s and below the stability limit: nothing to say.
+        let mut issues = vec![];
+        check_speeds_and_step(
+            &rigid_spec(&[500.0], 0.5 * limit),
+            &imp,
+            &casing,
+            &mut issues,
+        );
+        assert!(issues.is_empty(), "{issues:?}");
+        // Above 1000 rad/s the stiffness is indefinite; h above the limit at 500 rad/s.
+        check_speeds_and_step(
+            &rigid_spec(&[500.0, 1500.0], 2.0 * limit),
+            &imp,
+            &casing,
+            &mut issues,
+        );
+        let text: Vec<String> = issues.iter().map(ToString::to_string).collect();
+        assert_eq!(text.len(), 2, "{text:?}");
+        assert!(
+            text[0].starts_with("/grid/speed/values/1: ")
+                && text[0].contains("1500 rad/s")
+                && text[0].contains("definiteness"),
+            "{text:?}"
+        );
+        assert!(
+            text[1].starts_with("/numerics/time_step_s: ")
+                && text[1].contains("stability limit")
+                && text[1].contains("Ω = 500 rad/s"),
+            "{text:?}"
+        );
+    }
 }
