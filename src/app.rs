@@ -10,9 +10,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, anyhow};
 
-use crate::dynamics::Simulation;
+use crate::dynamics::{SimError, Simulation};
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
 use crate::io::plots::{
@@ -20,9 +20,10 @@ use crate::io::plots::{
 };
 use crate::io::timeseries::TimeSeriesWriter;
 use crate::sweep::simulator::ModelSimulator;
+use crate::sweep::spec::CasingSource;
 use crate::sweep::{
-    MergeSummary, RunOptions, RunSummary, default_output_dir, load_records, load_spec, merge,
-    parse_shard, plan, run_sweep,
+    MergeSummary, ResolvedSweep, RunOptions, RunSummary, SpecError, default_output_dir,
+    load_records, load_spec, merge, parse_shard, plan, resolve, run_sweep,
 };
 
 use crate::dynamics::structure::Structure;
@@ -31,6 +32,65 @@ use crate::model::build::{ModelSpec, build_casing, build_impeller};
 
 pub use crate::io::model_cache::{casing_rom, impeller_rom};
 use crate::model::rom::CyclicRom;
+
+/// Exit status: every job ran and succeeded.
+pub const EXIT_OK: u8 = 0;
+/// Exit status: invalid input (spec, model file, arguments) or another error that stopped the
+/// command before it finished; nothing was run.
+pub const EXIT_INVALID: u8 = 1;
+/// Exit status: the sweep (or simulation) ran but some jobs failed; the reasons are in
+/// `jobs/<id>.json` and the manifest.
+pub const EXIT_JOBS_FAILED: u8 = 2;
+/// Exit status: interrupted (Ctrl-C); finished jobs are kept and a re-run resumes.
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+/// Why a command did not succeed; [`AppError::exit_code`] is the process exit status.
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// The sweep spec is invalid (every issue with its JSON pointer), or one of its models
+    /// cannot be built or loaded.
+    #[error(transparent)]
+    Invalid(#[from] SpecError),
+    /// Any other error that stopped the command (bad argument, unreadable file, I/O).
+    #[error("{0:#}")]
+    Failed(#[from] anyhow::Error),
+    /// The sweep ran but jobs failed.
+    #[error(
+        "{failed} of {finished} finished jobs failed; the reasons are in {dir}/jobs/<id>.json and {dir}/manifest.json",
+        dir = .output.display()
+    )]
+    JobsFailed {
+        /// Failed jobs of the shard (including failed jobs skipped on resume).
+        failed: usize,
+        /// Finished jobs of the shard.
+        finished: usize,
+        /// Output directory.
+        output: PathBuf,
+    },
+    /// The one simulation of `rubscan simulate` failed at run time.
+    #[error("simulation failed: {0}")]
+    SimulationFailed(SimError),
+    /// Interrupted by Ctrl-C.
+    #[error("interrupted")]
+    Interrupted,
+}
+
+impl AppError {
+    /// Process exit status: [`EXIT_INVALID`], [`EXIT_JOBS_FAILED`] or [`EXIT_INTERRUPTED`].
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            AppError::Invalid(_) | AppError::Failed(_) => EXIT_INVALID,
+            AppError::JobsFailed { .. } | AppError::SimulationFailed(_) => EXIT_JOBS_FAILED,
+            AppError::Interrupted => EXIT_INTERRUPTED,
+        }
+    }
+}
+
+/// Loads a sweep spec file and validates it as a whole with its models ([`resolve`]), before
+/// anything runs or is written.
+pub fn load_resolved(spec_path: &Path) -> Result<ResolvedSweep, SpecError> {
+    resolve(&load_spec(spec_path)?)
+}
 
 /// `rubscan model info`: a human-readable summary of a ROM file (sizes, frequencies per
 /// nodal diameter at the lowest and highest rotation speed of its modal data).
@@ -143,22 +203,31 @@ pub fn cancel_on_ctrl_c(flag: Arc<AtomicBool>) {
 /// `rubscan simulate`: runs one job of a spec (sweep format; job `index` of its plan, 0 by
 /// default) and writes `timeseries.parquet` and `summary.json` to `output`
 /// (default `results/<name>/simulate-<index>`). Returns the output directory.
-pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result<PathBuf> {
-    let spec = load_spec(spec_path)?;
+pub fn simulate(
+    spec_path: &Path,
+    index: usize,
+    output: Option<&Path>,
+) -> Result<PathBuf, AppError> {
+    let resolved = load_resolved(spec_path)?;
+    let spec = resolved.spec.clone();
     let plan = plan(&spec)?;
-    let job = plan.jobs.get(index).with_context(|| {
-        format!(
+    let job = plan.jobs.get(index).ok_or_else(|| {
+        anyhow!(
             "{}: the plan has {} jobs, no job {index}",
             spec_path.display(),
             plan.jobs.len()
         )
     })?;
-    let sim = ModelSimulator::new(&spec)?;
+    let sim = ModelSimulator::from_resolved(resolved)?;
     let (case, casing, _) = sim.case_for_job(job)?;
     let cancel = Arc::new(AtomicBool::new(false));
     cancel_on_ctrl_c(cancel.clone());
+    let failed = |e| match e {
+        SimError::Cancelled { .. } => AppError::Interrupted,
+        e => AppError::SimulationFailed(e),
+    };
     // Every check of the case runs before the output directory is made.
-    let simulation = Simulation::new(&case, sim.impeller(), &casing)?;
+    let simulation = Simulation::new(&case, sim.impeller(), &casing).map_err(failed)?;
     let dir = output.map_or_else(
         || {
             PathBuf::from("results")
@@ -168,7 +237,7 @@ pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result
         Path::to_path_buf,
     );
     let mut series = TimeSeriesWriter::create(&dir.join("timeseries.parquet"))?;
-    let out = simulation.run(&mut series, Some(&cancel))?;
+    let out = simulation.run(&mut series, Some(&cancel)).map_err(failed)?;
     series.finish()?;
     let summary = serde_json::json!({
         "job_id": job.id,
@@ -185,8 +254,11 @@ pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result
     });
     crate::io::atomic::write_atomic(
         &dir.join("summary.json"),
-        serde_json::to_string_pretty(&summary)?.as_bytes(),
-    )?;
+        serde_json::to_string_pretty(&summary)
+            .map_err(anyhow::Error::from)?
+            .as_bytes(),
+    )
+    .map_err(anyhow::Error::from)?;
     eprintln!(
         "{} steps ({} with contact) in {:.1} s, h = {:.3e} s (limit {:.3e} s, {:.0} steps/rev) -> {}",
         out.n_steps,
@@ -200,9 +272,10 @@ pub fn simulate(spec_path: &Path, index: usize, output: Option<&Path>) -> Result
     Ok(dir)
 }
 
-/// `rubscan plan`: the jobs of a sweep with their resolved parameters and the work estimate.
-pub fn plan_text(spec_path: &Path) -> Result<String> {
-    let spec = load_spec(spec_path)?;
+/// `rubscan plan`: the jobs of a sweep with their resolved parameters and the work estimate,
+/// after validating the whole spec with its models.
+pub fn plan_text(spec_path: &Path) -> Result<String, AppError> {
+    let spec = load_resolved(spec_path)?.spec;
     let plan = plan(&spec)?;
     let mut s = String::new();
     let _ = writeln!(
@@ -221,7 +294,7 @@ pub fn plan_text(spec_path: &Path) -> Result<String> {
             p.speed_rad_s,
             p.friction,
             clearance,
-            serde_json::to_string(&p.coating)?
+            serde_json::to_string(&p.coating).map_err(anyhow::Error::from)?
         );
     }
     let _ = writeln!(
@@ -247,25 +320,34 @@ pub struct RunArgs {
     pub retry_failed: bool,
 }
 
-/// `rubscan run`: runs (or resumes) a sweep, writes `results.parquet`, the manifest and plots.
-pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary> {
-    let spec = load_spec(spec_path)?;
+/// `rubscan run`: validates the whole spec with its models, then runs (or resumes) the sweep
+/// and writes `results.parquet`, the manifest and plots. Failed jobs do not make this an
+/// error: see [`check_run`] for the exit status.
+pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
+    let shard = args.shard.as_deref().map(parse_shard).transpose()?;
+    let resolved = load_resolved(spec_path)?;
+    let spec = resolved.spec.clone();
     let mut opts = RunOptions::new(
         args.output
             .clone()
             .unwrap_or_else(|| default_output_dir(Path::new("."), &spec)),
     );
     opts.threads = args.threads;
-    opts.shard = args.shard.as_deref().map(parse_shard).transpose()?;
+    opts.shard = shard;
     opts.progress = std::io::stderr().is_terminal();
     opts.retry_failed = args.retry_failed;
     cancel_on_ctrl_c(opts.cancel.clone());
-    let sim = ModelSimulator::new(&spec)?;
+    let sim = ModelSimulator::from_resolved(resolved)?;
     let summary = run_sweep(&spec, &opts, &sim)?;
     let records = load_records(&opts.output_dir, plan(&spec)?.jobs.iter());
-    let lobes = spec.scenario.lobes.unwrap_or(2).max(1);
+    let lobes = match &spec.models.casing {
+        CasingSource::Rigid(r) => r.lobes,
+        _ => spec.scenario.lobes.unwrap_or(2),
+    }
+    .max(1);
     let orders: Vec<u32> = (1..=8).map(|i| i * lobes).collect();
-    let plots = write_sweep_plots(&opts.output_dir, &records, &orders)?;
+    let plots =
+        write_sweep_plots(&opts.output_dir, &records, &orders).map_err(anyhow::Error::from)?;
     eprintln!(
         "{} jobs: {} ran, {} skipped (already done), {} ok, {} failed{} in {:.1} s -> {} (+{} plots)",
         summary.in_shard,
@@ -281,11 +363,30 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary> {
     Ok(summary)
 }
 
+/// The exit status of a finished [`run`]: [`AppError::Interrupted`] when Ctrl-C stopped it,
+/// [`AppError::JobsFailed`] when any finished job of the shard failed (including failed jobs
+/// skipped on resume).
+pub fn check_run(summary: &RunSummary) -> Result<(), AppError> {
+    if summary.cancelled {
+        return Err(AppError::Interrupted);
+    }
+    if summary.failed > 0 {
+        return Err(AppError::JobsFailed {
+            failed: summary.failed,
+            finished: summary.ok + summary.failed,
+            output: summary
+                .results_path
+                .parent()
+                .map_or_else(PathBuf::new, Path::to_path_buf),
+        });
+    }
+    Ok(())
+}
+
 /// `rubscan campbell`: critical speeds of the linear interaction criterion for a sweep's
 /// models, as a table; draws the absolute-frame Campbell diagram to `output` (PNG or SVG).
-pub fn campbell(spec_path: &Path, output: &Path) -> Result<String> {
-    let spec = load_spec(spec_path)?;
-    let sim = ModelSimulator::new(&spec)?;
+pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
+    let sim = ModelSimulator::from_resolved(load_resolved(spec_path)?)?;
     let imp = sim.impeller();
     let mut s = String::new();
     let _ = writeln!(
@@ -350,7 +451,7 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String> {
             .map(|c| (c.speed_rad_s, c.nodal_diameter))
             .collect(),
     };
-    campbell_diagram(&data, output)?;
+    campbell_diagram(&data, output).map_err(anyhow::Error::from)?;
     let _ = writeln!(s, "Campbell diagram -> {}", output.display());
     Ok(s)
 }

@@ -4,11 +4,19 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use rubscan::app::{self, ImportFormat, RunArgs};
+use rubscan::app::{self, AppError, ImportFormat, RunArgs};
+
+/// Exit statuses, shown by `rubscan --help`.
+const EXIT_STATUS_HELP: &str = "\
+Exit status:
+  0    success (every job ran and succeeded)
+  1    invalid input (spec, model file, arguments) or another error; nothing ran
+  2    the sweep ran but some jobs failed (reasons in jobs/<id>.json and manifest.json)
+  130  interrupted (Ctrl-C); finished jobs are kept, a re-run resumes";
 
 /// Critical-speed scans of a bladed impeller rubbing inside a flexible casing.
 #[derive(Parser)]
-#[command(version, about)]
+#[command(version, about, after_help = EXIT_STATUS_HELP)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -107,10 +115,32 @@ enum Format {
 }
 
 fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // Help and version go to stdout with status 0; usage errors are invalid input.
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(app::EXIT_INVALID)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
+    match dispatch(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.exit_code())
+        }
+    }
+}
+
+fn dispatch(command: Command) -> Result<(), AppError> {
+    match command {
         Command::Model {
             action: ModelAction::Build { spec, output },
-        } => app::model_build(spec.as_deref(), &output),
+        } => Ok(app::model_build(spec.as_deref(), &output)?),
         Command::Model {
             action:
                 ModelAction::Import {
@@ -123,11 +153,11 @@ fn main() -> ExitCode {
                 Format::Calculix => ImportFormat::Calculix,
                 Format::MatrixMarket => ImportFormat::MatrixMarket,
             };
-            app::model_import(format, &spec, &output)
+            Ok(app::model_import(format, &spec, &output)?)
         }
         Command::Model {
             action: ModelAction::Info { file },
-        } => app::model_info(&file).map(|text| print!("{text}")),
+        } => Ok(app::model_info(&file).map(|text| print!("{text}"))?),
         Command::Simulate { spec, job, output } => {
             app::simulate(&spec, job, output.as_deref()).map(drop)
         }
@@ -147,17 +177,10 @@ fn main() -> ExitCode {
                 retry_failed,
             },
         )
-        .map(drop),
-        Command::Merge { shards, output } => app::merge_shards(&shards, &output).map(drop),
+        .and_then(|summary| app::check_run(&summary)),
+        Command::Merge { shards, output } => Ok(app::merge_shards(&shards, &output).map(drop)?),
         Command::Campbell { spec, output } => {
             app::campbell(&spec, &output).map(|text| print!("{text}"))
-        }
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
         }
     }
 }

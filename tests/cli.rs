@@ -183,3 +183,179 @@ fn sigkill_then_resume_equals_an_uninterrupted_run() {
         std::fs::remove_dir_all(d).unwrap();
     }
 }
+
+/// The small spec as JSON, edited by `f`, written to `dir/<tag>.json`.
+fn small_with(dir: &Path, tag: &str, f: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(SMALL).unwrap()).unwrap();
+    f(&mut v);
+    let path = dir.join(format!("{tag}.json"));
+    std::fs::write(&path, v.to_string()).unwrap();
+    path
+}
+
+/// Each invalid spec is refused by `plan` and `run` with exit status 1 within 5 s, its
+/// stderr names the JSON path or field and the reason, and no output directory appears.
+#[test]
+fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
+    let dir = tmp("invalid");
+    std::fs::create_dir_all(&dir).unwrap();
+    // Warm the model cache (a fresh machine builds the small models once, in seconds).
+    let warm = rubscan().args(["plan", SMALL]).output().unwrap();
+    assert!(
+        warm.status.success(),
+        "{}",
+        String::from_utf8_lossy(&warm.stderr)
+    );
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(&str, Edit, &[&str]); 8] = [
+        (
+            "scenario_typo",
+            |v| v["scenario"]["load_amplitud_m"] = serde_json::json!(1e-4),
+            &[
+                "/scenario",
+                "load_amplitud_m",
+                "did you mean `load_amplitude_m`",
+            ],
+        ),
+        (
+            "numerics_typo",
+            |v| v["numerics"]["decimaton"] = serde_json::json!(5),
+            &["/numerics", "decimaton", "did you mean `decimation`"],
+        ),
+        (
+            "decimation_0",
+            |v| v["numerics"]["decimation"] = serde_json::json!(0),
+            &["/numerics/decimation", "minimum of 1"],
+        ),
+        (
+            "probe_outside",
+            |v| v["scenario"]["casing_probes"] = serde_json::json!([[0, 4], [12, 0]]),
+            &["/scenario/casing_probes/1", "does not exist", "12 sectors"],
+        ),
+        (
+            "unstable_step",
+            |v| v["numerics"]["time_step_s"] = serde_json::json!(1e-4),
+            &["/numerics/time_step_s", "stability limit"],
+        ),
+        (
+            "huge_friction",
+            |v| v["grid"]["friction"] = serde_json::json!([0.1, 1e6]),
+            &["/grid/friction/1", "maximum of 2"],
+        ),
+        (
+            "speed_above_range",
+            |v| v["grid"]["speed"]["values"] = serde_json::json!([1500, 20000]),
+            &["/grid/speed/values/1", "valid speed range", "20000"],
+        ),
+        (
+            "lobes_on_rigid",
+            |v| {
+                v["models"]["casing"] =
+                    serde_json::json!({"rigid": {"lobes": 2, "amplitude_m": 1e-4}});
+                let sc = v["scenario"].as_object_mut().unwrap();
+                sc.remove("load_amplitude_m");
+                sc.remove("load_ramp_s");
+                sc.remove("casing_probes");
+            },
+            &["/scenario/lobes", "flexible casing only"],
+        ),
+    ];
+    for (tag, edit, expect) in cases {
+        let spec = small_with(&dir, tag, edit);
+        for cmd in ["plan", "run"] {
+            let out = dir.join(format!("out-{tag}-{cmd}"));
+            let start = Instant::now();
+            let mut c = rubscan();
+            c.arg(cmd).arg(&spec);
+            if cmd == "run" {
+                c.arg("-o").arg(&out);
+            }
+            let st = c.output().unwrap();
+            let elapsed = start.elapsed();
+            let err = String::from_utf8_lossy(&st.stderr);
+            assert_eq!(st.status.code(), Some(1), "{tag} {cmd}: {err}");
+            assert!(elapsed < Duration::from_secs(5), "{tag} {cmd}: {elapsed:?}");
+            for e in expect {
+                assert!(err.contains(e), "{tag} {cmd}: {e:?} not in {err}");
+            }
+            assert!(!out.exists(), "{tag} {cmd}: output written");
+        }
+    }
+    // The default output directory (results/<name>) is not created either.
+    assert!(
+        !Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("results/small")
+            .exists()
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A job that only the time loop can refuse (a coating too stiff for the explicit step)
+/// fails while the others succeed: `run` exits with status 2, the reason is in the job record,
+/// and the manifest does not claim success.
+#[test]
+fn run_with_a_failed_job_exits_2_and_records_the_reason() {
+    let dir = tmp("jobfail");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_with(&dir, "spec", |v| {
+        v["scenario"]["duration_s"] = serde_json::json!(0.0005);
+        v["scenario"]["load_ramp_s"] = serde_json::json!(0.0002);
+        v["grid"]["speed"]["values"] = serde_json::json!([2000]);
+        v["grid"]["friction"] = serde_json::json!([0.1]);
+        v["grid"]["coating"] = serde_json::json!({"young": {"scale": [1.0, 1e6]}});
+    });
+    let out = dir.join("out");
+    let st = rubscan()
+        .args(["run", "--threads", "1"])
+        .arg(&spec)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert_eq!(st.status.code(), Some(2), "{err}");
+    assert!(err.contains("1 of 2 finished jobs failed"), "{err}");
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["complete"], true);
+    assert_eq!(manifest["all_ok"], false);
+    assert_eq!(manifest["failed"], 1);
+    let reasons: Vec<String> = std::fs::read_dir(out.join("jobs"))
+        .unwrap()
+        .map(|e| std::fs::read_to_string(e.unwrap().path()).unwrap())
+        .filter(|t| t.contains("\"failed\""))
+        .collect();
+    assert_eq!(reasons.len(), 1, "{reasons:?}");
+    assert!(reasons[0].contains("coating too stiff"), "{}", reasons[0]);
+    // A resume runs nothing and still reports the failure.
+    let st = rubscan()
+        .arg("run")
+        .arg(&spec)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        st.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn help_documents_the_exit_status_and_bad_arguments_exit_1() {
+    let st = rubscan().arg("--help").output().unwrap();
+    assert_eq!(st.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&st.stdout);
+    for line in ["Exit status", "130", "some jobs failed"] {
+        assert!(text.contains(line), "{text}");
+    }
+    let st = rubscan()
+        .args(["run", "--threads", "x", SMALL])
+        .output()
+        .unwrap();
+    assert_eq!(st.status.code(), Some(1));
+}

@@ -13,7 +13,7 @@ fn interaction_and_wear_maps_from_a_synthetic_sweep() {
         &serde_json::json!({
             "name": "plots",
             "models": {"impeller": {"builtin": {}}, "casing": {"builtin": {}}},
-            "scenario": {"duration_s": 0.01, "lobes": 2},
+            "scenario": {"duration_s": 0.01, "lobes": 2, "load_amplitude_m": 1e-4},
             "grid": {"speed": {"unit": "rad_s", "range": {"start": 400.0, "stop": 1600.0, "count": 25}}, "friction": [0.1]}
         })
         .to_string(),
@@ -48,7 +48,7 @@ fn standard_plots_one_interaction_map_per_slice() {
         &serde_json::json!({
             "name": "plots2",
             "models": {"impeller": {"builtin": {}}, "casing": {"builtin": {}}},
-            "scenario": {"duration_s": 0.01, "lobes": 2},
+            "scenario": {"duration_s": 0.01, "lobes": 2, "load_amplitude_m": 1e-4},
             "grid": {"speed": {"unit": "rad_s", "values": [800.0, 1000.0, 1200.0]}, "friction": [0.0, 0.2]}
         })
         .to_string(),

@@ -23,7 +23,7 @@ fn spec() -> SweepSpec {
         &serde_json::json!({
             "name": "runner_test",
             "models": {"impeller": {"builtin": {}}, "casing": {"rigid": {"lobes": 2, "amplitude_m": 1e-4}}},
-            "scenario": {"duration_s": 0.01, "lobes": 2},
+            "scenario": {"duration_s": 0.01},
             "numerics": {"time_step_s": 1e-5},
             "grid": {
                 "speed": {"unit": "rad_s", "range": {"start": 600.0, "stop": 1400.0, "count": 5}},

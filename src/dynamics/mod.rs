@@ -29,6 +29,6 @@ pub mod synthetic;
 pub use numerics::{KernelChoice, Numerics};
 pub use probes::{RunSummary, SimulationOutput};
 pub use scenario::{
-    Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad, RigidCasing, RigidShape,
+    Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad, RigidShape, RigidSurface,
 };
 pub use simulate::{SimError, Simulation, simulate};

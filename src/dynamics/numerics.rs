@@ -1,6 +1,22 @@
 //! Numerical parameters of a simulation (time step, Newton tolerance, kernel choice, decimation).
+//! The same type is the `numerics` object of a sweep spec.
+//!
+//! There is no Newton iteration cap here: the closest-point projection stops after a fixed
+//! [`MAX_NEWTON_ITERATIONS`](crate::contact::projection::MAX_NEWTON_ITERATIONS) and reports non-convergence as a failure.
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
+
+/// A count written as a JSON integer or an integral float (`2.0`), as JSON Schema's `integer` allows.
+fn de_count<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v.fract() == 0.0 && (0.0..=u32::MAX as f64).contains(&v) {
+        Ok(v as usize)
+    } else {
+        Err(serde::de::Error::custom(format!(
+            "{v} is not an integer in 0..=4294967295"
+        )))
+    }
+}
 
 /// Which linear-algebra kernel advances the structures (both give the same result to round-off).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -21,15 +37,17 @@ pub enum KernelChoice {
 pub struct Numerics {
     /// Time step h (s). Default 1e-7 s, the paper's value (§3.3.3). Must stay below the
     /// explicit stability limit `2/ω_max` of both ROMs at the simulated speed.
+    /// JSON name `time_step_s` (the unit in the name, as everywhere in the sweep spec).
+    #[serde(rename = "time_step_s")]
     pub time_step: f64,
     /// Relative stop criterion ε_NR of the closest-point Newton–Raphson (paper §3.1, default 1e-5):
     /// iterations stop when the parameter update is below ε_NR (patch-local units).
     pub newton_tolerance: f64,
-    /// Maximum Newton–Raphson iterations per blade node and step (default 50).
-    pub newton_max_iterations: usize,
     /// Kernel choice (default `fast`).
     pub kernel: KernelChoice,
-    /// Output decimation: one probe sample every `decimation` steps (default 10).
+    /// Output decimation: one probe sample every `decimation` steps (default 10, ≥ 1).
+    /// Integral floats (`10.0`) are accepted, like JSON Schema's `integer`.
+    #[serde(deserialize_with = "de_count")]
     pub decimation: usize,
 }
 
@@ -38,7 +56,6 @@ impl Default for Numerics {
         Self {
             time_step: 1e-7,
             newton_tolerance: 1e-5,
-            newton_max_iterations: 50,
             kernel: KernelChoice::Fast,
             decimation: 10,
         }
@@ -60,9 +77,6 @@ impl Numerics {
                 self.newton_tolerance
             ));
         }
-        if self.newton_max_iterations == 0 {
-            return Err("numerics.newton_max_iterations must be ≥ 1".into());
-        }
         if self.decimation == 0 {
             return Err("numerics.decimation must be ≥ 1".into());
         }
@@ -76,9 +90,15 @@ mod tests {
 
     #[test]
     fn serde_defaults_and_rejects_unknown() {
-        let n: Numerics = serde_json::from_str(r#"{"kernel":"dense_reference"}"#).unwrap();
+        let n: Numerics =
+            serde_json::from_str(r#"{"kernel":"dense_reference","decimation":4.0}"#).unwrap();
         assert_eq!(n.kernel, KernelChoice::DenseReference);
-        assert_eq!(n.time_step, 1e-7);
+        assert_eq!((n.time_step, n.decimation), (1e-7, 4));
+        let n: Numerics = serde_json::from_str(r#"{"time_step_s":2e-7}"#).unwrap();
+        assert_eq!(n.time_step, 2e-7);
+        assert!(serde_json::from_str::<Numerics>(r#"{"time_step":1e-7}"#).is_err());
+        assert!(serde_json::from_str::<Numerics>(r#"{"decimation":2.5}"#).is_err());
+        assert!(serde_json::from_str::<Numerics>(r#"{"newton_max_iterations":5}"#).is_err());
         assert!(serde_json::from_str::<Numerics>(r#"{"dt":1}"#).is_err());
         assert!(
             Numerics {

@@ -36,10 +36,11 @@ pub enum RigidShape {
     Tabulated { offsets: Vec<f64> },
 }
 
-/// A rigid casing: the spline is built once on the prescribed shape.
+/// The resolved surface of a rigid casing (stations, meridian, shape): the spline is built
+/// once on it. The sweep spec's `RigidCasing` is resolved into one per job.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct RigidCasing {
+pub struct RigidSurface {
     /// Number of circumferential stations N (≥ 3).
     pub n_sectors: usize,
     /// Meridian `(r₀, z)` (m) of the M ≥ 2 rows, leading edge first.
@@ -48,7 +49,7 @@ pub struct RigidCasing {
     pub shape: RigidShape,
 }
 
-impl RigidCasing {
+impl RigidSurface {
     /// Data points `P(i, j)` (global frame, m), index `i·M + j`.
     pub fn data_points(&self) -> Result<Vec<nalgebra::Vector3<f64>>, String> {
         let (n, m) = (self.n_sectors, self.meridian.len());
@@ -91,7 +92,7 @@ impl RigidCasing {
 #[derive(Clone, Debug)]
 pub enum CasingModel {
     Flexible(CyclicRom),
-    Rigid(RigidCasing),
+    Rigid(RigidSurface),
 }
 
 /// Initial velocities (m/s, assembled physical DOF ordering of each ROM); displacements start at 0.

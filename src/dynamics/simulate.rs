@@ -1828,7 +1828,7 @@ impl CoatingStage {
 mod tests {
     use super::*;
     use crate::dynamics::numerics::Numerics;
-    use crate::dynamics::scenario::{InitialVelocity, LobeLoad, RigidCasing, RigidShape};
+    use crate::dynamics::scenario::{InitialVelocity, LobeLoad, RigidShape, RigidSurface};
     use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
     use crate::model::rom::{Component, ContactNode, Damping, HarmonicBlock, HermitianMatrix};
     use nalgebra::DMatrix;
@@ -1939,7 +1939,6 @@ mod tests {
                 newton_tolerance: eps,
                 kernel,
                 decimation: 5,
-                ..Default::default()
             },
             coating: None,
         }
@@ -2043,7 +2042,7 @@ mod tests {
             damping: Damping::Modal { ratio: 0.0 },
             provenance: serde_json::Value::Null,
         };
-        let casing = CasingModel::Rigid(RigidCasing {
+        let casing = CasingModel::Rigid(RigidSurface {
             n_sectors: 64,
             meridian: vec![[r0 + g0, -0.01], [r0 + g0, 0.01]],
             shape: RigidShape::Lobes {

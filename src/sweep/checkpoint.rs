@@ -140,7 +140,12 @@ mod tests {
                 scenario: Scenario {
                     duration_s: 1.0,
                     lobes: None,
-                    extra: Default::default(),
+                    load_amplitude_m: None,
+                    load_ramp_s: None,
+                    casing_probes: vec![],
+                    steady_fraction: None,
+                    rigid_stations: None,
+                    coating: None,
                 },
                 numerics: Numerics::default(),
             }),

@@ -1,6 +1,7 @@
 //! Sweep stage: specification, planner, runner with checkpoint/resume (DESIGN.md §6).
 //!
-//! Pipeline: [`spec::load_spec`] → [`planner::plan`] → [`runner::run_sweep`] (one
+//! Pipeline: [`spec::load_spec`] → [`validate::resolve`] (the whole spec, with its models) →
+//! [`planner::plan`] → [`runner::run_sweep`] (one
 //! [`JobSimulator::run`] per job on a rayon pool, each finished job persisted at once
 //! under `<out>/jobs/<id>.json`) → `<out>/results.parquet` + `<out>/manifest.json`;
 //! shard outputs combine with [`runner::merge`].
@@ -15,6 +16,7 @@ pub mod runner;
 pub mod simulator;
 pub mod spec;
 pub mod synthetic;
+pub mod validate;
 
 use std::sync::atomic::AtomicBool;
 
@@ -27,6 +29,7 @@ pub use runner::{
     parse_shard, read_manifest, run_sweep,
 };
 pub use spec::{SpecError, SpecIssue, SweepSpec, load_spec, parse_spec};
+pub use validate::{ResolvedSweep, resolve};
 
 /// Runs one job of a sweep. Implementations must be deterministic for a given job
 /// (the resume and sharding guarantees rely on it) and single-threaded inside

@@ -68,9 +68,9 @@ pub struct JobContext {
     pub impeller: ModelSource,
     /// Casing model.
     pub casing: CasingSource,
-    /// Scenario, with pass-through fields.
+    /// Scenario.
     pub scenario: Scenario,
-    /// Numerics, with pass-through fields.
+    /// Numerics.
     pub numerics: Numerics,
 }
 
@@ -92,7 +92,7 @@ pub struct Job {
 pub struct Plan {
     /// Jobs in deterministic order; `jobs[i].index == i`.
     pub jobs: Vec<Job>,
-    /// Time steps per job, ⌈duration_s / time_step_s⌉, when the time step is given.
+    /// Time steps per job, ⌈duration_s / time_step_s⌉ (always known: the time step has a default).
     pub steps_per_job: Option<u64>,
     /// Work estimate: jobs × steps per job.
     pub total_steps: Option<u64>,
@@ -294,10 +294,7 @@ pub fn plan(spec: &SweepSpec) -> Result<Plan, SpecError> {
             context: Arc::clone(&context),
         });
     }
-    let steps_per_job = spec
-        .numerics
-        .time_step_s
-        .map(|h| (spec.scenario.duration_s / h).ceil() as u64);
+    let steps_per_job = Some((spec.scenario.duration_s / spec.numerics.time_step).ceil() as u64);
     Ok(Plan {
         total_steps: steps_per_job.map(|s| s.saturating_mul(n_jobs as u64)),
         steps_per_job,

@@ -119,8 +119,15 @@ pub struct Manifest {
     pub summary: RunSummary,
     /// Start time (s since the Unix epoch).
     pub started_unix_s: f64,
-    /// True when every job of the shard (or plan, for merges) is finished.
+    /// True when every job of the shard (or plan, for merges) is finished (ok or failed).
     pub complete: bool,
+    /// Finished jobs that failed (= `summary.failed`); their reasons are in `jobs/<id>.json`
+    /// and the `reason` column of the results table.
+    #[serde(default)]
+    pub failed: usize,
+    /// True when the scan worked: complete and no job failed.
+    #[serde(default)]
+    pub all_ok: bool,
 }
 
 fn now_unix_s() -> f64 {
@@ -375,6 +382,8 @@ pub fn run_sweep(
         steps_per_job: plan.steps_per_job,
         total_steps: plan.total_steps,
         complete: summary.unfinished == 0,
+        failed: summary.failed,
+        all_ok: summary.unfinished == 0 && summary.failed == 0,
         summary: summary.clone(),
         started_unix_s,
     };
@@ -459,6 +468,8 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
         steps_per_job: plan.steps_per_job,
         total_steps: plan.total_steps,
         complete: missing.is_empty(),
+        failed: summary.failed,
+        all_ok: missing.is_empty() && summary.failed == 0,
         summary,
         started_unix_s,
     };

@@ -6,68 +6,17 @@
 use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
-use serde::Deserialize;
-use serde_json::Value;
 
 use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
 use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::scenario::CoatingCase;
-use crate::dynamics::{Case, CasingModel, LobeLoad, Numerics, RigidCasing, RigidShape, Simulation};
-use crate::io::{model_cache, rom_file};
-use crate::model::build::{CasingSpec, ImpellerSpec};
+use crate::dynamics::{Case, CasingModel, LobeLoad, RigidShape, RigidSurface, Simulation};
 use crate::model::rom::CyclicRom;
 use crate::sweep::aggregate::JobAggregator;
 use crate::sweep::planner::{CoatingParams, CoatingValue, Job};
-use crate::sweep::spec::{CasingSource, ModelSource, SweepSpec};
+use crate::sweep::spec::{Scenario, SweepSpec};
+use crate::sweep::validate::{self, ResolvedCasing, ResolvedSweep};
 use crate::sweep::{CriticalSpeed, JobResult, JobSimulator};
-
-/// Scenario fields beyond `duration_s` and `lobes` (sweep spec `scenario`), all optional.
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ScenarioExtras {
-    /// Static inward radial displacement δ (m) of the n-lobe casing load at its peak (flexible casing).
-    pub load_amplitude_m: Option<f64>,
-    /// End of the load ramp t_f (s); the load is released after it. Default: a quarter of the duration.
-    pub load_ramp_s: Option<f64>,
-    /// Casing contact nodes `[sector, node]` whose radial displacement is recorded.
-    pub casing_probes: Vec<[usize; 2]>,
-    /// Fraction of the run, at its end, used as the steady window of the spectra (default 0.5).
-    pub steady_fraction: Option<f64>,
-    /// Circumferential stations of a rigid casing's spline (default 120).
-    pub rigid_stations: Option<usize>,
-    /// Abradable coating on the casing (nominal values; the grid's `coating` axes scale or
-    /// replace them). Also switched on, with nominal values, by a `grid.coating` axis.
-    pub coating: Option<CoatingScenario>,
-}
-
-/// Nominal abradable coating of a sweep (paper §4); defaults: [`CoatingMaterial::nominal`].
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CoatingScenario {
-    /// Young's modulus E (Pa).
-    pub young_pa: f64,
-    /// Plastic (hardening) modulus K (Pa).
-    pub hardening_pa: f64,
-    /// Yield stress σ_Y (Pa).
-    pub yield_stress_pa: f64,
-    /// Thickness e_abr (m).
-    pub thickness_m: f64,
-    /// Elements per circumferential row η.
-    pub eta: usize,
-}
-
-impl Default for CoatingScenario {
-    fn default() -> Self {
-        let m = CoatingMaterial::nominal();
-        Self {
-            young_pa: m.young,
-            hardening_pa: m.plastic_modulus,
-            yield_stress_pa: m.yield_stress,
-            thickness_m: m.thickness,
-            eta: 6000,
-        }
-    }
-}
 
 /// Applies one grid coating value to a nominal one.
 fn resolve(nominal: f64, value: Option<CoatingValue>) -> f64 {
@@ -80,7 +29,7 @@ fn resolve(nominal: f64, value: Option<CoatingValue>) -> f64 {
 
 /// The coating of one job: the scenario's nominal coating with the job's grid values applied;
 /// `None` when neither the scenario nor the grid asks for a coating.
-fn job_coating(extras: &ScenarioExtras, params: &CoatingParams) -> Option<CoatingCase> {
+fn job_coating(extras: &Scenario, params: &CoatingParams) -> Option<CoatingCase> {
     let on_grid = params.young.is_some()
         || params.hardening.is_some()
         || params.yield_stress.is_some()
@@ -104,17 +53,6 @@ fn job_coating(extras: &ScenarioExtras, params: &CoatingParams) -> Option<Coatin
 /// Default tip clearance (m) of a rigid casing when the grid gives none.
 const DEFAULT_RIGID_CLEARANCE: f64 = 0.5e-3;
 
-/// The casing of a sweep, resolved once.
-#[derive(Clone, Debug)]
-enum ResolvedCasing {
-    Flexible(CyclicRom),
-    Rigid {
-        lobes: usize,
-        amplitude: f64,
-        offsets: Option<Vec<f64>>,
-    },
-}
-
 /// A [`JobSimulator`] running the flexible-casing contact simulation of [`crate::dynamics`].
 #[derive(Debug)]
 pub struct ModelSimulator {
@@ -124,34 +62,6 @@ pub struct ModelSimulator {
     nominal_clearance: Option<f64>,
     /// Critical speeds of the linear interaction criterion, computed once.
     criticals: Vec<CriticalSpeed>,
-}
-
-fn impeller_model(source: &ModelSource) -> Result<(CyclicRom, Option<f64>)> {
-    match source {
-        ModelSource::Builtin(map) => {
-            let spec: ImpellerSpec = serde_json::from_value(Value::Object(map.clone()))
-                .context("models.impeller.builtin")?;
-            let clearance = spec.geometry.tip_clearance;
-            Ok((model_cache::impeller_rom(&spec)?, Some(clearance)))
-        }
-        ModelSource::Rom(path) => Ok((rom_file::load(path)?, None)),
-    }
-}
-
-fn casing_model(source: &CasingSource) -> Result<ResolvedCasing> {
-    Ok(match source {
-        CasingSource::Builtin(map) => {
-            let spec: CasingSpec = serde_json::from_value(Value::Object(map.clone()))
-                .context("models.casing.builtin")?;
-            ResolvedCasing::Flexible(model_cache::casing_rom(&spec)?)
-        }
-        CasingSource::Rom(path) => ResolvedCasing::Flexible(rom_file::load(path)?),
-        CasingSource::Rigid(r) => ResolvedCasing::Rigid {
-            lobes: r.lobes as usize,
-            amplitude: r.amplitude_m,
-            offsets: r.gap_offsets_m.clone(),
-        },
-    })
 }
 
 /// Meridian of a rigid casing: the blade-tip contact rows `(r, z)` (leading → trailing edge)
@@ -199,9 +109,9 @@ pub fn rigid_casing(
     offsets: Option<&[f64]>,
     stations: Option<usize>,
     meridian: Vec<[f64; 2]>,
-) -> RigidCasing {
+) -> RigidSurface {
     match offsets {
-        None => RigidCasing {
+        None => RigidSurface {
             n_sectors: stations.unwrap_or(120),
             meridian,
             shape: RigidShape::Lobes {
@@ -218,7 +128,7 @@ pub fn rigid_casing(
                     d + amplitude * (lobes as f64 * 2.0 * std::f64::consts::PI * i as f64 / n).cos()
                 })
                 .collect();
-            RigidCasing {
+            RigidSurface {
                 n_sectors: o.len(),
                 meridian,
                 shape: RigidShape::Tabulated { offsets },
@@ -240,11 +150,20 @@ fn tip_rows(rom: &CyclicRom) -> Vec<[f64; 2]> {
 }
 
 impl ModelSimulator {
-    /// Resolves (builds, loads or takes from the cache) the models of a sweep and evaluates
-    /// the linear interaction criterion once.
+    /// Validates `spec` as a whole ([`validate::resolve`]), resolves (builds, loads or takes from the
+    /// cache) its models and evaluates the linear interaction criterion once.
     pub fn new(spec: &SweepSpec) -> Result<Self> {
-        let (impeller, nominal_clearance) = impeller_model(&spec.models.impeller)?;
-        let casing = casing_model(&spec.models.casing)?;
+        Self::from_resolved(validate::resolve(spec)?)
+    }
+
+    /// The simulator of a validated sweep: evaluates the linear interaction criterion once.
+    pub fn from_resolved(resolved: ResolvedSweep) -> Result<Self> {
+        let ResolvedSweep {
+            impeller,
+            casing,
+            nominal_clearance,
+            ..
+        } = resolved;
         let opts = CriterionOptions::default();
         let criticals = match &casing {
             ResolvedCasing::Flexible(c) => interaction::critical_speeds(
@@ -260,13 +179,14 @@ impl ModelSimulator {
                 compatibility: c.compatibility.unwrap_or(0.0),
             })
             .collect(),
-            ResolvedCasing::Rigid { lobes, .. } => {
+            ResolvedCasing::Rigid(r) => {
                 // A rigid casing has no modes: the critical speeds are the engine-order crossings of
                 // the lobe harmonics, whose shapes are compatible by construction (score 1).
+                let lobes = r.lobes as usize;
                 interaction::engine_order_crossings(
                     &impeller.modal_data,
                     impeller.n_sectors,
-                    *lobes,
+                    lobes,
                     12 * lobes,
                     &opts,
                 )
@@ -297,7 +217,7 @@ impl ModelSimulator {
     pub fn casing_rom(&self) -> Option<&CyclicRom> {
         match &self.casing {
             ResolvedCasing::Flexible(rom) => Some(rom),
-            ResolvedCasing::Rigid { .. } => None,
+            ResolvedCasing::Rigid(_) => None,
         }
     }
 
@@ -306,18 +226,13 @@ impl ModelSimulator {
         &self.impeller
     }
 
-    /// Builds the simulation case and casing model of one job.
-    pub fn case_for_job(&self, job: &Job) -> Result<(Case, CasingModel, ScenarioExtras)> {
+    /// Builds the simulation case and casing model of one job, and returns the job's scenario.
+    /// The job comes from the plan of the validated spec this simulator was made from, so
+    /// every option applies to the models; the errors left are internal inconsistencies.
+    pub fn case_for_job(&self, job: &Job) -> Result<(Case, CasingModel, Scenario)> {
         let ctx = &job.context;
-        let extras: ScenarioExtras =
-            serde_json::from_value(Value::Object(ctx.scenario.extra.clone()))
-                .context("scenario")?;
-        let mut numerics = ctx.numerics.extra.clone();
-        if let Some(h) = ctx.numerics.time_step_s {
-            numerics.insert("time_step".into(), Value::from(h));
-        }
-        let numerics: Numerics =
-            serde_json::from_value(Value::Object(numerics)).context("numerics")?;
+        let extras = ctx.scenario.clone();
+        let numerics = ctx.numerics.clone();
         let duration = ctx.scenario.duration_s;
         let rows = tip_rows(&self.impeller).len();
         let p = &job.params;
@@ -331,10 +246,10 @@ impl ModelSimulator {
                     (None, _) => vec![-e_abr; rows],
                     (Some(c), Some(c0)) => vec![c0 - c - e_abr; rows],
                     (Some(_), None) => bail!(
-                        "grid.clearance_m needs a built-in impeller (a ROM file does not state its clearance)"
+                        "/grid/clearance_m needs a built-in impeller (a ROM file does not state its clearance)"
                     ),
                 };
-                let load = match (ctx.scenario.lobes, extras.load_amplitude_m) {
+                let load = match (extras.lobes, extras.load_amplitude_m) {
                     (Some(n), Some(delta)) => Some(LobeLoad {
                         lobes: n as usize,
                         static_displacement: delta,
@@ -343,23 +258,19 @@ impl ModelSimulator {
                     }),
                     (None, None) => None,
                     _ => bail!(
-                        "scenario: `lobes` and `load_amplitude_m` go together (the n-lobe casing load)"
+                        "/scenario: `lobes` and `load_amplitude_m` go together (the n-lobe casing load)"
                     ),
                 };
                 (CasingModel::Flexible(rom.clone()), offset, load)
             }
-            ResolvedCasing::Rigid {
-                lobes,
-                amplitude,
-                offsets,
-            } => {
+            ResolvedCasing::Rigid(r) => {
                 let clearance = p.clearance_m.unwrap_or(DEFAULT_RIGID_CLEARANCE);
                 let meridian = rigid_meridian(&tip_rows(&self.impeller), clearance + e_abr);
                 let rigid = rigid_casing(
-                    *lobes,
-                    *amplitude,
-                    offsets.as_deref(),
-                    extras.rigid_stations,
+                    r.lobes as usize,
+                    r.amplitude_m,
+                    r.gap_offsets_m.as_deref(),
+                    extras.rigid_stations.map(|n| n as usize),
                     meridian,
                 );
                 (CasingModel::Rigid(rigid), vec![], None)

@@ -15,7 +15,11 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use serde::{Deserialize, Deserializer, Serialize};
-use serde_json::{Map, Value};
+use serde_json::Value;
+
+use crate::dynamics::abradable::CoatingMaterial;
+pub use crate::dynamics::numerics::{KernelChoice, Numerics};
+use crate::model::build::{CasingSpec, ImpellerSpec};
 
 /// JSON Schema's `integer` accepts `2.0`; accept it here too so that a schema-valid spec
 /// never fails in serde (whose errors carry no JSON path).
@@ -29,6 +33,10 @@ fn integral_u32(v: f64) -> Result<u32, String> {
 
 fn de_u32<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
     integral_u32(f64::deserialize(d)?).map_err(serde::de::Error::custom)
+}
+
+fn de_usize<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    de_u32(d).map(|v| v as usize)
 }
 
 fn de_opt_u32<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Error> {
@@ -116,9 +124,9 @@ pub struct SweepSpec {
     pub description: Option<String>,
     /// Impeller and casing models.
     pub models: Models,
-    /// Loading scenario (typed fields + pass-through).
+    /// Loading scenario.
     pub scenario: Scenario,
-    /// Numerical settings (typed fields + pass-through).
+    /// Numerical settings (the simulator's own type; JSON `time_step_s` = h).
     #[serde(default)]
     pub numerics: Numerics,
     /// Parameter grid.
@@ -135,27 +143,35 @@ pub struct Models {
     pub casing: CasingSource,
 }
 
-/// Where a component model comes from.
+/// Where the impeller model comes from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum ModelSource {
-    /// Built-in parametric model; the object holds geometry overrides, passed through.
-    Builtin(Map<String, Value>),
+    /// Built-in parametric impeller; every field of the build spec has a default.
+    Builtin(Box<ImpellerSpec>),
     /// Reduced-order model file; a relative path is relative to the spec file's directory
     /// (see [`SweepSpec::resolve_paths`]).
     Rom(PathBuf),
 }
 
-/// Where the casing model comes from: like [`ModelSource`], or a rigid distorted casing.
+/// Where the casing model comes from: a built-in or ROM-file flexible casing, or a rigid
+/// distorted casing.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum CasingSource {
-    /// Built-in parametric casing; geometry overrides, passed through.
-    Builtin(Map<String, Value>),
-    /// Reduced-order model file.
+    /// Built-in parametric flexible casing; every field of the build spec has a default.
+    Builtin(Box<CasingSpec>),
+    /// Reduced-order model file of a flexible casing.
     Rom(PathBuf),
     /// Rigid casing with an n-lobe radial distortion.
     Rigid(RigidCasing),
+}
+
+impl CasingSource {
+    /// True for a rigid casing (no modes, no load, no probes).
+    pub fn is_rigid(&self) -> bool {
+        matches!(self, CasingSource::Rigid(_))
+    }
 }
 
 /// Rigid casing with a static n-lobe distortion r(θ) = r₀ − a cos(n θ).
@@ -174,34 +190,80 @@ pub struct RigidCasing {
     pub gap_offsets_m: Option<Vec<f64>>,
 }
 
-/// Loading scenario. `duration_s` and `lobes` are typed; every other field is
-/// kept in `extra` and handed to the simulator unchanged.
+/// Loading scenario. Fields marked "flexible casing" or "rigid casing" are rejected with
+/// the other kind of casing (see [`SweepSpec::validate`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Scenario {
     /// Simulated time (s), > 0.
     pub duration_s: f64,
-    /// Number of lobes of the casing distortion, ≥ 1.
+    /// Number of lobes n ≥ 1 of the casing load (flexible casing; goes with
+    /// `load_amplitude_m`). A rigid casing takes its lobes from `models.casing.rigid.lobes`.
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
         deserialize_with = "de_opt_u32"
     )]
     pub lobes: Option<u32>,
-    /// Pass-through fields.
-    #[serde(flatten)]
-    pub extra: Map<String, Value>,
+    /// Static inward radial displacement δ (m) of the n-lobe casing load at its peak
+    /// (flexible casing; goes with `lobes`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_amplitude_m: Option<f64>,
+    /// End of the load ramp t_f (s), in (0, duration]; the load is released after it.
+    /// Default: a quarter of the duration. Needs the load.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_ramp_s: Option<f64>,
+    /// Casing contact nodes `[sector, node]` whose radial displacement is recorded
+    /// (flexible casing; sector < N, node < M of the casing).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub casing_probes: Vec<[usize; 2]>,
+    /// Fraction of the run, at its end, used as the steady window of the spectra, in (0, 1]
+    /// (default 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steady_fraction: Option<f64>,
+    /// Circumferential stations (≥ 3) of a lobed rigid casing's spline (default 120; rigid
+    /// casing without `gap_offsets_m`, whose length sets the stations).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "de_opt_u32"
+    )]
+    pub rigid_stations: Option<u32>,
+    /// Abradable coating on the casing (nominal values; the grid's `coating` axes scale or
+    /// replace them). Also switched on, with nominal values, by a `grid.coating` axis.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coating: Option<CoatingScenario>,
 }
 
-/// Numerical settings. `time_step_s` is typed (used for the work estimate);
-/// every other field is passed through.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct Numerics {
-    /// Time step h (s), > 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub time_step_s: Option<f64>,
-    /// Pass-through fields.
-    #[serde(flatten)]
-    pub extra: Map<String, Value>,
+/// Nominal abradable coating of a sweep (paper §4); defaults: [`CoatingMaterial::nominal`],
+/// η = 6000.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CoatingScenario {
+    /// Young's modulus E (Pa), > 0.
+    pub young_pa: f64,
+    /// Plastic (hardening) modulus K (Pa), > 0.
+    pub hardening_pa: f64,
+    /// Yield stress σ_Y (Pa), > 0.
+    pub yield_stress_pa: f64,
+    /// Thickness e_abr (m), > 0.
+    pub thickness_m: f64,
+    /// Elements per circumferential row η ≥ 1.
+    #[serde(deserialize_with = "de_usize")]
+    pub eta: usize,
+}
+
+impl Default for CoatingScenario {
+    fn default() -> Self {
+        let m = CoatingMaterial::nominal();
+        Self {
+            young_pa: m.young,
+            hardening_pa: m.plastic_modulus,
+            yield_stress_pa: m.yield_stress,
+            thickness_m: m.thickness,
+            eta: 6000,
+        }
+    }
 }
 
 /// The parameter grid. Axes are crossed (full factorial) except those named in `zip`.
@@ -374,26 +436,41 @@ impl fmt::Display for AxisName {
     }
 }
 
+/// The sweep schema as JSON, parsed once. It is a compile-time constant checked by a unit
+/// test, so a failure here is a build defect, not a user error.
+fn schema_value() -> &'static Value {
+    static SCHEMA: OnceLock<Value> = OnceLock::new();
+    SCHEMA.get_or_init(|| {
+        serde_json::from_str(SWEEP_SCHEMA).expect("embedded sweep schema is valid JSON")
+    })
+}
+
 fn schema_validator() -> &'static jsonschema::Validator {
     static VALIDATOR: OnceLock<jsonschema::Validator> = OnceLock::new();
     VALIDATOR.get_or_init(|| {
-        // The schema is a compile-time constant checked by a unit test, so failure here
-        // is a build defect, not a user error.
-        let schema: Value =
-            serde_json::from_str(SWEEP_SCHEMA).expect("embedded sweep schema is valid JSON");
-        jsonschema::draft202012::new(&schema).expect("embedded sweep schema compiles")
+        jsonschema::draft202012::new(schema_value()).expect("embedded sweep schema compiles")
     })
 }
 
 /// Checks a JSON value against the sweep schema; returns every violation with its path.
+/// Unknown fields are reported once each, with the closest valid name
+/// ([`super::validate::unknown_fields`]) instead of the schema's generic message.
 pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
-    let issues: Vec<SpecIssue> = schema_validator()
-        .iter_errors(value)
-        .map(|e| SpecIssue {
-            path: e.instance_path().as_str().to_string(),
-            reason: e.to_string(),
-        })
-        .collect();
+    let mut issues = super::validate::unknown_fields(value, schema_value());
+    issues.extend(
+        schema_validator()
+            .iter_errors(value)
+            .filter(|e| {
+                !matches!(
+                    e.kind(),
+                    jsonschema::error::ValidationErrorKind::AdditionalProperties { .. }
+                )
+            })
+            .map(|e| SpecIssue {
+                path: e.instance_path().as_str().to_string(),
+                reason: e.to_string(),
+            }),
+    );
     if issues.is_empty() {
         Ok(())
     } else {
@@ -433,6 +510,22 @@ pub fn load_spec(path: &Path) -> Result<SweepSpec, SpecError> {
         spec.resolve_paths(dir);
     }
     Ok(spec)
+}
+
+/// Largest accepted Coulomb friction coefficient μ. Measured sliding coefficients of
+/// blade/casing and blade/abradable pairs lie in 0.05–0.8; 2 leaves room for exploratory
+/// sweeps while rejecting typos such as `1e6`, whose tangential force would dwarf the normal
+/// one and make the run a meaningless (and numerically stiff) stick–slip oscillator.
+pub const MAX_FRICTION: f64 = 2.0;
+
+/// Pushes an issue when `v` is not finite and > 0.
+fn check_positive(issues: &mut Vec<SpecIssue>, pointer: &str, v: f64, unit: &str) {
+    if !(v.is_finite() && v > 0.0) {
+        issues.push(SpecIssue {
+            path: pointer.into(),
+            reason: format!("{v}{unit} must be finite and > 0"),
+        });
+    }
 }
 
 fn check_list(
@@ -522,26 +615,9 @@ impl SweepSpec {
             }
             _ => {}
         }
-        if !(self.scenario.duration_s.is_finite() && self.scenario.duration_s > 0.0) {
-            issues.push(SpecIssue {
-                path: "/scenario/duration_s".into(),
-                reason: format!("{} must be finite and > 0", self.scenario.duration_s),
-            });
-        }
-        if self.scenario.lobes == Some(0) {
-            issues.push(SpecIssue {
-                path: "/scenario/lobes".into(),
-                reason: "0 is less than the minimum of 1".into(),
-            });
-        }
-        if let Some(h) = self.numerics.time_step_s
-            && !(h.is_finite() && h > 0.0)
-        {
-            issues.push(SpecIssue {
-                path: "/numerics/time_step_s".into(),
-                reason: format!("{h} must be finite and > 0"),
-            });
-        }
+        self.validate_scenario(&mut issues);
+        self.validate_numerics(&mut issues);
+        self.validate_applicability(&mut issues);
         self.validate_speed(&mut issues);
         check_list(
             &mut issues,
@@ -550,6 +626,17 @@ impl SweepSpec {
             true,
             "friction coefficient",
         );
+        for (i, &mu) in self.grid.friction.iter().enumerate() {
+            if mu > MAX_FRICTION {
+                issues.push(SpecIssue {
+                    path: format!("/grid/friction/{i}"),
+                    reason: format!(
+                        "μ = {mu} is not a physical Coulomb coefficient: the bound is {MAX_FRICTION} \
+                         (measured blade/casing and blade/abradable pairs lie in 0.05–0.8)"
+                    ),
+                });
+            }
+        }
         if let Some(c) = &self.grid.clearance_m {
             check_list(&mut issues, "/grid/clearance_m", c, true, "clearance");
         }
@@ -591,6 +678,155 @@ impl SweepSpec {
             Ok(())
         } else {
             Err(SpecError::Invalid(issues))
+        }
+    }
+
+    fn validate_scenario(&self, issues: &mut Vec<SpecIssue>) {
+        let sc = &self.scenario;
+        check_positive(issues, "/scenario/duration_s", sc.duration_s, " s");
+        if sc.lobes == Some(0) {
+            issues.push(SpecIssue {
+                path: "/scenario/lobes".into(),
+                reason: "0 is less than the minimum of 1".into(),
+            });
+        }
+        if let Some(a) = sc.load_amplitude_m {
+            check_positive(issues, "/scenario/load_amplitude_m", a, " m");
+        }
+        if let Some(t) = sc.load_ramp_s {
+            check_positive(issues, "/scenario/load_ramp_s", t, " s");
+            if t > sc.duration_s {
+                issues.push(SpecIssue {
+                    path: "/scenario/load_ramp_s".into(),
+                    reason: format!(
+                        "the load ramp ends at {t} s, after the end of the run ({} s)",
+                        sc.duration_s
+                    ),
+                });
+            }
+        }
+        if let Some(f) = sc.steady_fraction
+            && !(f.is_finite() && f > 0.0 && f <= 1.0)
+        {
+            issues.push(SpecIssue {
+                path: "/scenario/steady_fraction".into(),
+                reason: format!("{f} must lie in (0, 1]"),
+            });
+        }
+        if let Some(n) = sc.rigid_stations
+            && n < 3
+        {
+            issues.push(SpecIssue {
+                path: "/scenario/rigid_stations".into(),
+                reason: format!("{n} is less than the minimum of 3"),
+            });
+        }
+        if let Some(c) = &sc.coating {
+            for (field, v, unit) in [
+                ("young_pa", c.young_pa, " Pa"),
+                ("hardening_pa", c.hardening_pa, " Pa"),
+                ("yield_stress_pa", c.yield_stress_pa, " Pa"),
+                ("thickness_m", c.thickness_m, " m"),
+            ] {
+                check_positive(issues, &format!("/scenario/coating/{field}"), v, unit);
+            }
+            if c.eta == 0 {
+                issues.push(SpecIssue {
+                    path: "/scenario/coating/eta".into(),
+                    reason: "0 is less than the minimum of 1".into(),
+                });
+            }
+        }
+    }
+
+    fn validate_numerics(&self, issues: &mut Vec<SpecIssue>) {
+        let n = &self.numerics;
+        check_positive(issues, "/numerics/time_step_s", n.time_step, " s");
+        check_positive(issues, "/numerics/newton_tolerance", n.newton_tolerance, "");
+        if n.decimation == 0 {
+            issues.push(SpecIssue {
+                path: "/numerics/decimation".into(),
+                reason: "0 is less than the minimum of 1 (one sample every `decimation` steps)"
+                    .into(),
+            });
+        }
+    }
+
+    /// Options that do not apply to the chosen models are rejected, not ignored.
+    fn validate_applicability(&self, issues: &mut Vec<SpecIssue>) {
+        let sc = &self.scenario;
+        let mut reject = |path: &str, reason: &str| {
+            issues.push(SpecIssue {
+                path: path.into(),
+                reason: reason.into(),
+            })
+        };
+        if self.models.casing.is_rigid() {
+            let flexible_only = "applies to a flexible casing only; a rigid casing";
+            if sc.lobes.is_some() {
+                reject(
+                    "/scenario/lobes",
+                    &format!("{flexible_only} takes its lobes from /models/casing/rigid/lobes"),
+                );
+            }
+            if sc.load_amplitude_m.is_some() {
+                reject(
+                    "/scenario/load_amplitude_m",
+                    &format!("{flexible_only} is not loaded"),
+                );
+            }
+            if sc.load_ramp_s.is_some() {
+                reject(
+                    "/scenario/load_ramp_s",
+                    &format!("{flexible_only} is not loaded"),
+                );
+            }
+            if !sc.casing_probes.is_empty() {
+                reject(
+                    "/scenario/casing_probes",
+                    &format!("{flexible_only} does not move"),
+                );
+            }
+            if let (Some(_), CasingSource::Rigid(r)) = (sc.rigid_stations, &self.models.casing)
+                && r.gap_offsets_m.is_some()
+            {
+                reject(
+                    "/scenario/rigid_stations",
+                    "the length of /models/casing/rigid/gap_offsets_m sets the stations",
+                );
+            }
+        } else {
+            if sc.rigid_stations.is_some() {
+                reject(
+                    "/scenario/rigid_stations",
+                    "applies to a rigid casing only (a flexible casing's stations are its sectors)",
+                );
+            }
+            match (sc.lobes, sc.load_amplitude_m) {
+                (Some(_), None) => reject(
+                    "/scenario",
+                    "`lobes` needs `load_amplitude_m` (they define the n-lobe casing load together)",
+                ),
+                (None, Some(_)) => reject(
+                    "/scenario",
+                    "`load_amplitude_m` needs `lobes` (they define the n-lobe casing load together)",
+                ),
+                (None, None) if sc.load_ramp_s.is_some() => reject(
+                    "/scenario/load_ramp_s",
+                    "there is no casing load to ramp (give `lobes` and `load_amplitude_m`)",
+                ),
+                _ => {}
+            }
+        }
+        if matches!(self.models.impeller, ModelSource::Rom(_))
+            && !self.models.casing.is_rigid()
+            && self.grid.clearance_m.is_some()
+        {
+            reject(
+                "/grid/clearance_m",
+                "with a flexible casing, needs a built-in impeller (a ROM file does not state \
+                 its clearance, so it cannot be changed)",
+            );
         }
     }
 
@@ -770,13 +1006,14 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BTreeSet;
 
     fn base() -> Value {
         serde_json::json!({
             "name": "t",
-            "models": {"impeller": {"builtin": {}}, "casing": {"rigid": {"lobes": 2, "amplitude_m": 1e-4}}},
-            "scenario": {"duration_s": 0.1, "lobes": 2, "ramp_s": 0.05},
-            "numerics": {"time_step_s": 1e-5, "tolerance": 1e-9},
+            "models": {"impeller": {"builtin": {}}, "casing": {"builtin": {}}},
+            "scenario": {"duration_s": 0.1, "lobes": 2, "load_amplitude_m": 1e-4, "load_ramp_s": 0.05},
+            "numerics": {"time_step_s": 1e-5, "newton_tolerance": 1e-9},
             "grid": {"speed": {"unit": "rpm", "values": [600.0, 1200.0]}, "friction": [0.0, 0.15]}
         })
     }
@@ -793,12 +1030,15 @@ mod tests {
     #[test]
     fn embedded_schema_compiles_and_base_is_valid() {
         let spec = spec_from_value(base()).unwrap();
-        assert_eq!(spec.scenario.extra["ramp_s"], serde_json::json!(0.05));
-        assert_eq!(spec.numerics.extra["tolerance"], serde_json::json!(1e-9));
+        assert_eq!(spec.scenario.load_ramp_s, Some(0.05));
+        assert_eq!(spec.numerics.newton_tolerance, 1e-9);
+        assert_eq!(spec.numerics.time_step, 1e-5);
+        // Unset numerics take the simulator's defaults.
+        assert_eq!(spec.numerics.decimation, Numerics::default().decimation);
         // 600 rpm = 10 rev/s = 20π rad/s.
         let w = spec.grid.speed.values_rad_s();
         assert!((w[0] - 20.0 * std::f64::consts::PI).abs() < 1e-12);
-        // Round trip through serde keeps pass-through fields.
+        // Round trip through serde keeps every field.
         let back = spec_from_value(serde_json::to_value(&spec).unwrap()).unwrap();
         assert_eq!(back, spec);
     }
@@ -896,6 +1136,7 @@ mod tests {
     #[test]
     fn integral_floats_accepted_like_the_schema() {
         let mut v = base();
+        v["numerics"]["decimation"] = serde_json::json!(5.0);
         v["scenario"]["lobes"] = serde_json::json!(3.0);
         v["grid"]["speed"] = serde_json::json!({"unit": "rad_s", "range": {"start": 1.0, "stop": 2.0, "count": 2.0}});
         let s = spec_from_value(v.clone()).unwrap();
@@ -903,12 +1144,302 @@ mod tests {
             (s.scenario.lobes, s.grid.speed.range.unwrap().count),
             (Some(3), 2)
         );
+        assert_eq!(s.numerics.decimation, 5);
         v["scenario"]["lobes"] = serde_json::json!(2.5);
         let i = issues_of(v);
         assert!(
             i.iter().any(|s| s.starts_with("/scenario/lobes: ")),
             "{i:?}"
         );
+    }
+
+    fn rigid(v: &mut Value) {
+        v["models"]["casing"] = serde_json::json!({"rigid": {"lobes": 2, "amplitude_m": 1e-4}});
+        let sc = v["scenario"].as_object_mut().unwrap();
+        for k in ["lobes", "load_amplitude_m", "load_ramp_s"] {
+            sc.remove(k);
+        }
+    }
+
+    #[test]
+    fn unknown_fields_name_the_closest_valid_field() {
+        let mut v = base();
+        v["scenario"]["load_amplitud_m"] = serde_json::json!(1e-4);
+        v["numerics"]["decimaton"] = serde_json::json!(3);
+        v["models"]["impeller"]["builtin"] = serde_json::json!({"geometry": {"n_blade": 4}});
+        let i = issues_of(v);
+        for want in [
+            "/scenario: unknown field `load_amplitud_m`, did you mean `load_amplitude_m`?",
+            "/numerics: unknown field `decimaton`, did you mean `decimation`?",
+            "/models/impeller/builtin/geometry: unknown field `n_blade`, did you mean `n_blades`?",
+        ] {
+            assert!(i.iter().any(|s| s == want), "{want} not in {i:?}");
+        }
+        // Reported once, not again by the schema's generic message.
+        assert_eq!(i.len(), 3, "{i:?}");
+    }
+
+    #[test]
+    fn non_physical_values_are_rejected_with_their_path() {
+        for (edit, path, needle) in [
+            (
+                serde_json::json!({"numerics": {"decimation": 0}}),
+                "/numerics/decimation",
+                "minimum",
+            ),
+            (
+                serde_json::json!({"numerics": {"time_step_s": 0.0}}),
+                "/numerics/time_step_s",
+                "",
+            ),
+            (
+                serde_json::json!({"scenario": {"duration_s": -1.0}}),
+                "/scenario/duration_s",
+                "",
+            ),
+            (
+                serde_json::json!({"grid": {"friction": [1e6]}}),
+                "/grid/friction/0",
+                "2",
+            ),
+            (
+                serde_json::json!({"scenario": {"load_ramp_s": 0.2}}),
+                "/scenario/load_ramp_s",
+                "after the end",
+            ),
+            (
+                serde_json::json!({"scenario": {"steady_fraction": 1.5}}),
+                "/scenario/steady_fraction",
+                "",
+            ),
+        ] {
+            let mut v = base();
+            for (section, fields) in edit.as_object().unwrap() {
+                for (k, x) in fields.as_object().unwrap() {
+                    v[section][k] = x.clone();
+                }
+            }
+            let i = issues_of(v);
+            assert!(
+                i.iter()
+                    .any(|s| s.starts_with(&format!("{path}: ")) && s.contains(needle)),
+                "{path}: {i:?}"
+            );
+        }
+        // A spec built in code meets the same bounds (no schema pass).
+        let mut spec = spec_from_value(base()).unwrap();
+        spec.grid.friction = vec![MAX_FRICTION * 1.5];
+        spec.numerics.decimation = 0;
+        let mut paths: Vec<String> = spec
+            .validate()
+            .unwrap_err()
+            .issues()
+            .iter()
+            .map(|i| i.path.clone())
+            .collect();
+        paths.sort();
+        assert_eq!(paths, ["/grid/friction/0", "/numerics/decimation"]);
+    }
+
+    #[test]
+    fn options_of_the_other_casing_kind_are_rejected() {
+        // Flexible-casing options with a rigid casing.
+        for (field, value) in [
+            ("lobes", serde_json::json!(2)),
+            ("load_amplitude_m", serde_json::json!(1e-4)),
+            ("casing_probes", serde_json::json!([[0, 1]])),
+        ] {
+            let mut v = base();
+            rigid(&mut v);
+            v["scenario"][field] = value;
+            let i = issues_of(v);
+            assert!(
+                i.iter().any(|s| s.starts_with(&format!(
+                    "/scenario/{field}: applies to a flexible casing only"
+                ))),
+                "{field}: {i:?}"
+            );
+        }
+        let mut v = base();
+        rigid(&mut v);
+        assert!(spec_from_value(v.clone()).is_ok());
+        v["scenario"]["rigid_stations"] = serde_json::json!(60);
+        assert!(spec_from_value(v.clone()).is_ok());
+        // Rigid-casing options with a flexible casing; a load needs both of its fields.
+        let mut v = base();
+        v["scenario"]["rigid_stations"] = serde_json::json!(60);
+        assert!(
+            issues_of(v)
+                .iter()
+                .any(|s| s.starts_with("/scenario/rigid_stations: applies to a rigid casing only"))
+        );
+        let mut v = base();
+        v["scenario"]
+            .as_object_mut()
+            .unwrap()
+            .remove("load_amplitude_m");
+        assert!(
+            issues_of(v)
+                .iter()
+                .any(|s| s.contains("`lobes` needs `load_amplitude_m`"))
+        );
+        // A ROM impeller's clearance cannot be changed against a flexible casing …
+        let mut v = base();
+        v["models"]["impeller"] = serde_json::json!({"rom": "x.rom"});
+        v["grid"]["clearance_m"] = serde_json::json!([1e-4]);
+        assert!(
+            issues_of(v.clone())
+                .iter()
+                .any(|s| s.starts_with("/grid/clearance_m: "))
+        );
+        // … but places a rigid casing.
+        rigid(&mut v);
+        assert!(spec_from_value(v).is_ok());
+    }
+
+    /// Property paths of the schema (array items as `*`), following `$ref`s; asserts that
+    /// every object with properties is closed.
+    fn schema_paths(schema: &Value, root: &Value, path: &str, out: &mut BTreeSet<String>) {
+        let schema = crate::sweep::validate::deref(schema, root);
+        if let Some(props) = schema.get("properties").and_then(Value::as_object) {
+            assert_eq!(
+                schema.get("additionalProperties"),
+                Some(&Value::Bool(false)),
+                "{path} is not closed"
+            );
+            for (k, sub) in props {
+                let p = format!("{path}/{k}");
+                out.insert(p.clone());
+                schema_paths(sub, root, &p, out);
+            }
+        }
+        if let Some(items) = schema.get("items") {
+            schema_paths(items, root, &format!("{path}/*"), out);
+        }
+    }
+
+    /// Object-key paths of a JSON value (array items as `*`).
+    fn value_paths(v: &Value, path: &str, out: &mut BTreeSet<String>) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m {
+                    let p = format!("{path}/{k}");
+                    out.insert(p.clone());
+                    value_paths(x, &p, out);
+                }
+            }
+            Value::Array(a) => a
+                .iter()
+                .for_each(|x| value_paths(x, &format!("{path}/*"), out)),
+            _ => {}
+        }
+    }
+
+    /// Specs that, together, fill every optional field and take every enum variant.
+    fn full_specs() -> Vec<SweepSpec> {
+        let axis = |scale: bool| {
+            Some(if scale {
+                CoatingAxis::Scale(vec![1.0])
+            } else {
+                CoatingAxis::Values(vec![1.0])
+            })
+        };
+        let mut impeller = ImpellerSpec::default();
+        let mut casing = CasingSpec::default();
+        let a = SweepSpec {
+            name: "full".into(),
+            description: Some("every field".into()),
+            models: Models {
+                impeller: ModelSource::Builtin(Box::new(impeller.clone())),
+                casing: CasingSource::Builtin(Box::new(casing.clone())),
+            },
+            scenario: Scenario {
+                duration_s: 0.1,
+                lobes: Some(2),
+                load_amplitude_m: Some(1e-4),
+                load_ramp_s: Some(0.01),
+                casing_probes: vec![[0, 1]],
+                steady_fraction: Some(0.5),
+                rigid_stations: Some(60),
+                coating: Some(CoatingScenario::default()),
+            },
+            numerics: Numerics::default(),
+            grid: Grid {
+                speed: SpeedAxis {
+                    unit: SpeedUnit::RadS,
+                    reference_rad_s: None,
+                    values: Some(vec![1.0]),
+                    range: None,
+                },
+                friction: vec![0.1],
+                clearance_m: Some(vec![1e-4]),
+                coating: Some(CoatingGrid {
+                    young: axis(false),
+                    hardening: axis(true),
+                    yield_stress: axis(false),
+                    thickness: axis(true),
+                }),
+                zip: vec![AxisName::Speed, AxisName::Friction],
+            },
+        };
+        let mut b = a.clone();
+        impeller.damping = crate::model::rom::Damping::Rayleigh {
+            alpha: 1.0,
+            beta: 1e-6,
+        };
+        casing.damping = impeller.damping;
+        b.models.impeller = ModelSource::Builtin(Box::new(impeller));
+        b.models.casing = CasingSource::Builtin(Box::new(casing));
+        b.grid.speed = SpeedAxis {
+            unit: SpeedUnit::Normalized,
+            reference_rad_s: Some(100.0),
+            values: None,
+            range: Some(Range {
+                start: 1.0,
+                stop: 2.0,
+                count: 2,
+            }),
+        };
+        b.grid.coating = Some(CoatingGrid {
+            young: axis(true),
+            hardening: axis(false),
+            yield_stress: axis(true),
+            thickness: axis(false),
+        });
+        let mut c = a.clone();
+        c.models.impeller = ModelSource::Rom("x.rom".into());
+        c.models.casing = CasingSource::Rigid(RigidCasing {
+            lobes: 2,
+            amplitude_m: 1e-4,
+            gap_offsets_m: Some(vec![0.0; 3]),
+        });
+        let mut d = a.clone();
+        d.models.casing = CasingSource::Rom("c.rom".into());
+        vec![a, b, c, d]
+    }
+
+    #[test]
+    fn schema_and_types_agree_field_by_field() {
+        let schema: Value = serde_json::from_str(SWEEP_SCHEMA).unwrap();
+        let mut in_schema = BTreeSet::new();
+        schema_paths(&schema, &schema, "", &mut in_schema);
+        let mut in_types = BTreeSet::new();
+        for spec in full_specs() {
+            let v = serde_json::to_value(&spec).unwrap();
+            // Every serialized spec is valid against the schema and reads back identical.
+            validate_against_schema(&v).unwrap_or_else(|e| panic!("{e}"));
+            let back: SweepSpec = serde_json::from_value(v.clone()).unwrap();
+            assert_eq!(back, spec);
+            value_paths(&v, "", &mut in_types);
+        }
+        let only_schema: Vec<_> = in_schema.difference(&in_types).collect();
+        let only_types: Vec<_> = in_types.difference(&in_schema).collect();
+        assert!(
+            only_schema.is_empty() && only_types.is_empty(),
+            "in the schema only: {only_schema:?}\nin the Rust types only: {only_types:?}"
+        );
+        assert!(in_schema.contains("/models/impeller/builtin/geometry/material/young"));
+        assert!(in_schema.len() > 80, "{}", in_schema.len());
     }
 
     #[test]

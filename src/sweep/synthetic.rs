@@ -206,7 +206,7 @@ mod tests {
 
         let spec = spec_from_value(serde_json::json!({
             "name": "t", "models": {"impeller": {"builtin": {}}, "casing": {"builtin": {}}},
-            "scenario": {"duration_s": 0.1, "lobes": 2},
+            "scenario": {"duration_s": 0.1, "lobes": 2, "load_amplitude_m": 1e-4},
             "grid": {"speed": {"unit": "rad_s", "values": [500.0]}, "friction": [0.0], "clearance_m": [0.0]}
         }))
         .unwrap();

@@ -1,0 +1,452 @@
+//! Whole-spec validation before anything runs or is written: [`resolve`] turns a sweep spec
+//! into a [`ResolvedSweep`] (models built, loaded or taken from the cache) or returns every
+//! issue with its JSON pointer and reason.
+//!
+//! Checks that need no model run first, in [`crate::sweep::spec`] (schema with did-you-mean
+//! suggestions for unknown fields, physical bounds, options that do not apply to the chosen
+//! models), so that typos fail in well under a second. The model-dependent checks follow:
+//! - every grid speed lies in the impeller ROM's valid speed range ([`valid_speed_range`]) and
+//!   K(Ω) = K0 + Ω² K1 + Ω⁴ K2 is positive semi-definite there ([`Structure::new`]);
+//! - the time step is below the explicit stability limit 2/ω_max
+//!   ([`Structure::stability_limit`]) of both structures at every grid speed;
+//! - casing probes name contact nodes of the flexible casing.
+
+use serde_json::Value;
+
+use crate::dynamics::structure::{Structure, StructureError};
+use crate::io::{model_cache, rom_file};
+use crate::model::rom::CyclicRom;
+use crate::sweep::spec::{CasingSource, ModelSource, RigidCasing, SpecError, SpecIssue, SweepSpec};
+
+/// Fraction of the largest tabulated speed by which a speed-dependent impeller ROM may be
+/// extrapolated. The reduction basis and the Campbell data cover the tabulated speeds; a
+/// 10 % margin admits the usual ±10 % bracket around a critical speed near the top of the
+/// table, while a speed far above it (a unit mistake, rpm given as rad/s) is refused.
+pub const SPEED_EXTRAPOLATION: f64 = 0.1;
+
+/// The closest name to `word` among `candidates` (Damerau–Levenshtein distance, so that a
+/// swap of two letters counts one edit, at most a third of the word's length and at least
+/// 1), or `None` when nothing is close.
+pub fn did_you_mean<'a>(
+    word: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<&'a str> {
+    let limit = (word.chars().count() / 3).max(1);
+    candidates
+        .into_iter()
+        .map(|c| (strsim::damerau_levenshtein(word, c), c))
+        .filter(|&(d, _)| d <= limit)
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, c)| c)
+}
+
+/// Follows a local `$ref` (`#/$defs/name`) of the schema `root`.
+pub(crate) fn deref<'a>(schema: &'a Value, root: &'a Value) -> &'a Value {
+    match schema.get("$ref").and_then(Value::as_str) {
+        Some(r) => r
+            .strip_prefix('#')
+            .and_then(|p| root.pointer(p))
+            .map_or(schema, |s| deref(s, root)),
+        None => schema,
+    }
+}
+
+/// Every field of `value` that the JSON Schema `schema` does not allow (objects with
+/// `additionalProperties: false`), with the closest valid name when one is close:
+/// `/scenario: unknown field `load_amplitud_m`, did you mean `load_amplitude_m`?`.
+pub fn unknown_fields(value: &Value, schema: &Value) -> Vec<SpecIssue> {
+    let mut issues = Vec::new();
+    walk(value, schema, schema, "", &mut issues);
+    issues
+}
+
+fn walk(value: &Value, schema: &Value, root: &Value, path: &str, issues: &mut Vec<SpecIssue>) {
+    let schema = deref(schema, root);
+    match value {
+        Value::Object(map) => {
+            let props = schema.get("properties").and_then(Value::as_object);
+            let closed = schema.get("additionalProperties") == Some(&Value::Bool(false));
+            for (key, v) in map {
+                let sub = format!("{path}/{}", key.replace('~', "~0").replace('/', "~1"));
+                match props.and_then(|p| p.get(key)) {
+                    Some(s) => walk(v, s, root, &sub, issues),
+                    None if closed => {
+                        let names = props.into_iter().flat_map(|p| p.keys().map(String::as_str));
+                        let reason = match did_you_mean(key, names) {
+                            Some(best) => {
+                                format!("unknown field `{key}`, did you mean `{best}`?")
+                            }
+                            None => {
+                                let all: Vec<&str> = props
+                                    .into_iter()
+                                    .flat_map(|p| p.keys().map(String::as_str))
+                                    .collect();
+                                format!("unknown field `{key}`; expected one of {}", all.join(", "))
+                            }
+                        };
+                        issues.push(SpecIssue {
+                            path: path.to_string(),
+                            reason,
+                        });
+                    }
+                    None => {}
+                }
+            }
+        }
+        Value::Array(items) => {
+            if let Some(s) = schema.get("items") {
+                for (i, v) in items.iter().enumerate() {
+                    walk(v, s, root, &format!("{path}/{i}"), issues);
+                }
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The casing of a resolved sweep.
+#[derive(Clone, Debug)]
+pub enum ResolvedCasing {
+    /// A flexible casing ROM (built-in or from a file).
+    Flexible(CyclicRom),
+    /// A rigid casing as given in the spec (its surface is built per job, on the clearance).
+    Rigid(RigidCasing),
+}
+
+/// A sweep spec checked as a whole, with its models: what the simulator consumes.
+#[derive(Clone, Debug)]
+pub struct ResolvedSweep {
+    /// The validated spec.
+    pub spec: SweepSpec,
+    /// Impeller ROM.
+    pub impeller: CyclicRom,
+    /// Tip clearance (m) built into the impeller geometry, when known (built-in models).
+    pub nominal_clearance: Option<f64>,
+    /// Casing.
+    pub casing: ResolvedCasing,
+}
+
+/// Speeds (rad/s) over which an impeller ROM's stiffness K(Ω) may be used: the span of its
+/// tabulated modal data, extended by [`SPEED_EXTRAPOLATION`] above; `None` (any speed) when
+/// K does not depend on Ω (K1 = K2 = 0, e.g. an imported model at rest) or nothing is tabulated.
+pub fn valid_speed_range(rom: &CyclicRom) -> Option<(f64, f64)> {
+    let depends = rom.harmonics.iter().any(|h| {
+        h.stiffness[1..]
+            .iter()
+            .any(|k| k.re.iter().chain(k.im.iter()).any(|&x| x != 0.0))
+    });
+    let speeds = rom.modal_data.iter().flat_map(|m| m.omega.iter().copied());
+    let (lo, hi) = speeds.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), w| {
+        (a.min(w), b.max(w))
+    });
+    (depends && lo <= hi).then_some((lo, hi * (1.0 + SPEED_EXTRAPOLATION)))
+}
+
+fn issue(path: impl Into<String>, reason: impl Into<String>) -> SpecIssue {
+    SpecIssue {
+        path: path.into(),
+        reason: reason.into(),
+    }
+}
+
+/// Validates `spec` as a whole and resolves its models; every problem is returned at once
+/// with its JSON pointer. Static checks ([`SweepSpec::validate`]) run first and stop before
+/// any model is built or loaded.
+pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
+    spec.validate()?;
+    let mut issues = Vec::new();
+    let impeller = match &spec.models.impeller {
+        ModelSource::Builtin(b) => model_cache::impeller_rom(b)
+            .map(|rom| (rom, Some(b.geometry.tip_clearance)))
+            .map_err(|e| issue("/models/impeller/builtin", format!("{e:#}"))),
+        ModelSource::Rom(p) => rom_file::load(p)
+            .map(|rom| (rom, None))
+            .map_err(|e| issue("/models/impeller/rom", format!("{e:#}"))),
+    };
+    let casing = match &spec.models.casing {
+        CasingSource::Builtin(b) => model_cache::casing_rom(b)
+            .map(ResolvedCasing::Flexible)
+            .map_err(|e| issue("/models/casing/builtin", format!("{e:#}"))),
+        CasingSource::Rom(p) => rom_file::load(p)
+            .map(ResolvedCasing::Flexible)
+            .map_err(|e| issue("/models/casing/rom", format!("{e:#}"))),
+        CasingSource::Rigid(r) => Ok(ResolvedCasing::Rigid(r.clone())),
+    };
+    let ((impeller, nominal_clearance), casing) = match (impeller, casing) {
+        (Ok(i), Ok(c)) => (i, c),
+        (i, c) => {
+            issues.extend(i.err());
+            issues.extend(c.err());
+            return Err(SpecError::Invalid(issues));
+        }
+    };
+    check_speeds_and_step(spec, &impeller, &casing, &mut issues);
+    check_probes(spec, &casing, &mut issues);
+    if issues.is_empty() {
+        Ok(ResolvedSweep {
+            spec: spec.clone(),
+            impeller,
+            nominal_clearance,
+            casing,
+        })
+    } else {
+        Err(SpecError::Invalid(issues))
+    }
+}
+
+/// JSON pointer of grid speed `i`.
+fn speed_pointer(spec: &SweepSpec, i: usize) -> String {
+    if spec.grid.speed.values.is_some() {
+        format!("/grid/speed/values/{i}")
+    } else {
+        "/grid/speed/range".into()
+    }
+}
+
+/// Speed range, definiteness of K(Ω) and the explicit stability limit at every grid speed.
+fn check_speeds_and_step(
+    spec: &SweepSpec,
+    impeller: &CyclicRom,
+    casing: &ResolvedCasing,
+    issues: &mut Vec<SpecIssue>,
+) {
+    let casing_structure = match casing {
+        ResolvedCasing::Flexible(rom) => match Structure::new(rom, 0.0) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                issues.push(issue("/models/casing", e.to_string()));
+                return;
+            }
+        },
+        ResolvedCasing::Rigid(_) => None,
+    };
+    let range = valid_speed_range(impeller);
+    let h = spec.numerics.time_step;
+    // Smallest stability limit over the grid: (limit s, Ω rad/s, which structure).
+    let mut worst: Option<(f64, f64, String)> = None;
+    for (i, omega) in spec.grid.speed.values_rad_s().into_iter().enumerate() {
+        if let Some((lo, hi)) = range
+            && !(lo..=hi).contains(&omega)
+        {
+            issues.push(issue(
+                speed_pointer(spec, i),
+                format!(
+                    "Ω = {omega} rad/s is outside the impeller ROM's valid speed range \
+                     [{lo}, {hi:.1}] rad/s (its modal data are tabulated up to {:.1} rad/s, \
+                     +{:.0} % extrapolation allowed)",
+                    hi / (1.0 + SPEED_EXTRAPOLATION),
+                    100.0 * SPEED_EXTRAPOLATION
+                ),
+            ));
+            continue;
+        }
+        let st = match Structure::new(impeller, omega) {
+            Ok(st) => st,
+            Err(e @ StructureError::Indefinite { .. }) => {
+                issues.push(issue(
+                    speed_pointer(spec, i),
+                    format!(
+                        "the impeller's stiffness loses definiteness at Ω = {omega} rad/s: {e}"
+                    ),
+                ));
+                continue;
+            }
+            Err(e) => {
+                issues.push(issue("/models/impeller", e.to_string()));
+                return;
+            }
+        };
+        let mut candidates = vec![(st.stability_limit(), format!("impeller `{}`", st.name))];
+        if let Some(c) = &casing_structure {
+            candidates.push((c.stability_limit(), format!("casing `{}`", c.name)));
+        }
+        for (limit, which) in candidates {
+            if worst.as_ref().is_none_or(|w| limit < w.0) {
+                worst = Some((limit, omega, which));
+            }
+        }
+    }
+    if let Some((limit, omega, which)) = worst
+        && h >= limit
+    {
+        issues.push(issue(
+            "/numerics/time_step_s",
+            format!(
+                "h = {h:.4e} s is at or above the explicit stability limit 2/ω_max = {limit:.4e} s \
+                 of the {which} at Ω = {omega} rad/s; use time_step_s < {limit:.4e}"
+            ),
+        ));
+    }
+}
+
+/// Casing probes must be contact nodes `[sector < N, node < M]` of the flexible casing.
+fn check_probes(spec: &SweepSpec, casing: &ResolvedCasing, issues: &mut Vec<SpecIssue>) {
+    let ResolvedCasing::Flexible(rom) = casing else {
+        return; // Rejected by the static checks.
+    };
+    let (n, m) = (rom.n_sectors, rom.n_contact());
+    for (i, &[sector, node]) in spec.scenario.casing_probes.iter().enumerate() {
+        if sector >= n || node >= m {
+            issues.push(issue(
+                format!("/scenario/casing_probes/{i}"),
+                format!(
+                    "casing probe [{sector}, {node}] does not exist: the casing has {n} sectors \
+                     (0..{n}) of {m} contact nodes (0..{m})"
+                ),
+            ));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn did_you_mean_finds_close_names_only() {
+        let names = ["load_amplitude_m", "load_ramp_s", "lobes", "duration_s"];
+        assert_eq!(
+            did_you_mean("load_amplitud_m", names),
+            Some("load_amplitude_m")
+        );
+        assert_eq!(did_you_mean("lobse", names), Some("lobes"));
+        assert_eq!(
+            did_you_mean("decimaton", ["decimation", "kernel"]),
+            Some("decimation")
+        );
+        assert_eq!(did_you_mean("colour", names), None);
+        assert_eq!(did_you_mean("x", names), None);
+    }
+
+    #[test]
+    fn unknown_fields_follow_refs_and_arrays() {
+        let schema = serde_json::json!({
+            "type": "object", "additionalProperties": false,
+            "properties": {
+                "a": {"$ref": "#/$defs/inner"},
+                "list": {"type": "array", "items": {"$ref": "#/$defs/inner"}},
+                "open": {"type": "object"}
+            },
+            "$defs": {"inner": {"type": "object", "additionalProperties": false,
+                                "properties": {"speed": {}, "count": {}}}}
+        });
+        let v = serde_json::json!({
+            "a": {"sped": 1}, "list": [{"count": 1}, {"cuont": 2}], "open": {"any": 1},
+            "zzz": 0
+        });
+        let got: Vec<String> = unknown_fields(&v, &schema)
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        assert_eq!(got.len(), 3, "{got:?}");
+        assert!(got.contains(&"/a: unknown field `sped`, did you mean `speed`?".to_string()));
+        assert!(got.contains(&"/list/1: unknown field `cuont`, did you mean `count`?".to_string()));
+        assert!(
+            got.iter()
+                .any(|s| s.starts_with("/: unknown field `zzz`; expected one of"))
+        );
+    }
+
+    #[test]
+    fn speed_range_is_the_tabulated_span_when_k_depends_on_omega() {
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::{Component, ModalData};
+        let mut rom = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 4, 2, 2));
+        rom.modal_data = vec![ModalData {
+            nodal_diameter: 0,
+            omega: vec![0.0, 100.0],
+            frequencies: vec![vec![1.0]; 2],
+            shapes_re: vec![vec![]; 2],
+            shapes_im: vec![vec![]; 2],
+        }];
+        for h in &mut rom.harmonics {
+            for k in &mut h.stiffness[1..] {
+                k.re.fill(0.0);
+                k.im.fill(0.0);
+            }
+        }
+        // No K1, K2: the model does not depend on Ω, any speed goes.
+        assert_eq!(valid_speed_range(&rom), None);
+        rom.harmonics[0].stiffness[1].re[(0, 0)] = 1.0;
+        let (lo, hi) = valid_speed_range(&rom).unwrap();
+        assert_eq!(lo, 0.0);
+        assert!(
+            (hi - 100.0 * (1.0 + SPEED_EXTRAPOLATION)).abs() < 1e-9,
+            "{hi}"
+        );
+    }
+
+    /// A synthetic impeller whose K(Ω) = K0 + Ω² K1 loses definiteness at Ω = 1000 rad/s,
+    /// tabulated up to 2000 rad/s (so the range check passes and the eigenvalue check acts).
+    fn softening_impeller() -> CyclicRom {
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::{Component, ModalData};
+        let mut rom = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 4, 2, 2));
+        for h in &mut rom.harmonics {
+            h.stiffness[1].re = &h.stiffness[0].re * (-1.0 / (1000.0f64 * 1000.0));
+            h.stiffness[1].im = &h.stiffness[0].im * (-1.0 / (1000.0f64 * 1000.0));
+            h.stiffness[2].re.fill(0.0);
+            h.stiffness[2].im.fill(0.0);
+        }
+        rom.modal_data = vec![ModalData {
+            nodal_diameter: 0,
+            omega: vec![0.0, 2000.0],
+            frequencies: vec![vec![1.0]; 2],
+            shapes_re: vec![vec![]; 2],
+            shapes_im: vec![vec![]; 2],
+        }];
+        rom
+    }
+
+    fn rigid_spec(speeds: &[f64], h: f64) -> SweepSpec {
+        crate::sweep::spec::spec_from_value(serde_json::json!({
+            "name": "t",
+            "models": {"impeller": {"rom": "x.rom"}, "casing": {"rigid": {"lobes": 2, "amplitude_m": 1e-4}}},
+            "scenario": {"duration_s": 0.01},
+            "numerics": {"time_step_s": h},
+            "grid": {"speed": {"unit": "rad_s", "values": speeds}, "friction": [0.1]}
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn indefinite_stiffness_and_unstable_step_name_the_speed_and_the_limit() {
+        let imp = softening_impeller();
+        let casing = ResolvedCasing::Rigid(RigidCasing {
+            lobes: 2,
+            amplitude_m: 1e-4,
+            gap_offsets_m: None,
+        });
+        let limit = Structure::new(&imp, 500.0).unwrap().stability_limit();
+        // Below 1000 rad/s and below the stability limit: nothing to say.
+        let mut issues = vec![];
+        check_speeds_and_step(
+            &rigid_spec(&[500.0], 0.5 * limit),
+            &imp,
+            &casing,
+            &mut issues,
+        );
+        assert!(issues.is_empty(), "{issues:?}");
+        // Above 1000 rad/s the stiffness is indefinite; h above the limit at 500 rad/s.
+        check_speeds_and_step(
+            &rigid_spec(&[500.0, 1500.0], 2.0 * limit),
+            &imp,
+            &casing,
+            &mut issues,
+        );
+        let text: Vec<String> = issues.iter().map(ToString::to_string).collect();
+        assert_eq!(text.len(), 2, "{text:?}");
+        assert!(
+            text[0].starts_with("/grid/speed/values/1: ")
+                && text[0].contains("1500 rad/s")
+                && text[0].contains("definiteness"),
+            "{text:?}"
+        );
+        assert!(
+            text[1].starts_with("/numerics/time_step_s: ")
+                && text[1].contains("stability limit")
+                && text[1].contains("Ω = 500 rad/s"),
+            "{text:?}"
+        );
+    }
+}

@@ -1,0 +1,137 @@
+//! Every field of `numerics` acts on the run: a tiny synthetic contact case run through the
+//! library API with one field changed at a time.
+
+use rubscan::dynamics::structure::Structure;
+use rubscan::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+use rubscan::dynamics::{
+    Case, CasingModel, InitialVelocity, KernelChoice, LobeLoad, Numerics, SimulationOutput,
+    simulate,
+};
+use rubscan::model::rom::{Component, CyclicRom};
+
+const OMEGA: f64 = 1500.0;
+
+fn models() -> (CyclicRom, CasingModel, f64) {
+    let imp = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 4, 2, 2));
+    let cas = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 3, 2));
+    let limit = Structure::new(&imp, OMEGA)
+        .unwrap()
+        .stability_limit()
+        .min(Structure::new(&cas, 0.0).unwrap().stability_limit());
+    (imp, CasingModel::Flexible(cas), limit)
+}
+
+/// A two-lobe casing load pushing the casing onto the blades (contact, friction).
+fn run(numerics: Numerics) -> SimulationOutput {
+    let (imp, casing, _) = models();
+    let case = Case {
+        omega: OMEGA,
+        duration: 4e-3,
+        friction: 0.1,
+        load: Some(LobeLoad {
+            lobes: 2,
+            static_displacement: 2.5e-4,
+            ramp_time: 2e-3,
+            hold_time: 0.0,
+        }),
+        clearance_offset: vec![],
+        casing_probes: vec![[0, 2]],
+        initial_velocity: InitialVelocity::default(),
+        numerics,
+        coating: None,
+    };
+    simulate(&case, &imp, &casing, None).unwrap()
+}
+
+fn base() -> Numerics {
+    let (_, _, limit) = models();
+    Numerics {
+        time_step: 0.5 * limit,
+        newton_tolerance: 1e-10,
+        kernel: KernelChoice::Fast,
+        decimation: 1,
+    }
+}
+
+/// Largest difference between the blade leading-edge displacements of two runs (m), over
+/// their common samples.
+fn max_diff(a: &SimulationOutput, b: &SimulationOutput) -> f64 {
+    a.blade_le_radial
+        .iter()
+        .zip(&b.blade_le_radial)
+        .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (p - q).abs()))
+        .fold(0.0, f64::max)
+}
+
+fn level(a: &SimulationOutput) -> f64 {
+    a.blade_le_radial
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+#[test]
+fn the_reference_run_has_contact() {
+    let out = run(base());
+    assert!(out.contact_steps > 0 && level(&out) > 0.0);
+}
+
+#[test]
+fn time_step_sets_the_step_count_and_changes_the_response() {
+    let a = run(base());
+    let b = run(Numerics {
+        time_step: 0.5 * base().time_step,
+        ..base()
+    });
+    assert_eq!(b.time_step, 0.5 * a.time_step);
+    assert!(
+        b.n_steps >= 2 * a.n_steps - 1,
+        "{} vs {}",
+        b.n_steps,
+        a.n_steps
+    );
+    // Same instants every second sample of b: the responses differ by the time error.
+    let at_same_times: f64 = a.blade_le_radial[0]
+        .iter()
+        .zip(b.blade_le_radial[0].iter().skip(1).step_by(2))
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max);
+    assert!(at_same_times > 0.0);
+}
+
+#[test]
+fn newton_tolerance_changes_the_contact_solution() {
+    let tight = run(base());
+    let loose = run(Numerics {
+        newton_tolerance: 1e-1,
+        ..base()
+    });
+    let d = max_diff(&tight, &loose);
+    assert!(d > 0.0, "a loose ε_NR left the run unchanged");
+}
+
+#[test]
+fn kernels_differ_only_at_round_off() {
+    let fast = run(base());
+    let dense = run(Numerics {
+        kernel: KernelChoice::DenseReference,
+        ..base()
+    });
+    let d = max_diff(&fast, &dense);
+    assert!(d > 0.0, "the kernel choice did not reach the run");
+    assert!(d < 1e-6 * level(&fast), "{d} against {}", level(&fast));
+}
+
+#[test]
+fn decimation_sets_the_number_of_samples() {
+    let every = run(base());
+    let fifth = run(Numerics {
+        decimation: 5,
+        ..base()
+    });
+    assert_eq!(every.time.len(), every.n_steps);
+    assert_eq!(fifth.time.len(), every.n_steps / 5);
+    // The kept samples are the same instants with the same values.
+    assert_eq!(fifth.time[0], every.time[4]);
+    assert_eq!(fifth.blade_le_radial[0][0], every.blade_le_radial[0][4]);
+}
