@@ -14,6 +14,9 @@ use rubscan::model::rom::CyclicRom;
 use rubscan::sweep::aggregate::JobAggregator;
 use rubscan::sweep::simulator::{rigid_casing, rigid_meridian};
 
+/// Per-blade (or per-probe, per-nodal-diameter) series `[index][sample]`.
+type Series = Vec<Vec<f64>>;
+
 fn run(case: &Case, imp: &CyclicRom, casing: &CasingModel) -> SimulationOutput {
     let mut rec = SeriesRecorder::default();
     let summary = Simulation::new(case, imp, casing)
@@ -38,7 +41,7 @@ fn assert_common_samples_equal(a: &SimulationOutput, b: &SimulationOutput, strid
         assert_eq!(pick(x), bits(y), "{name} differs (stride {stride})");
     };
     same("time", &a.time, &b.time);
-    let groups: [(&str, &Vec<Vec<f64>>, &Vec<Vec<f64>>); 6] = [
+    let groups: [(&str, &Series, &Series); 6] = [
         ("blade_le_radial", &a.blade_le_radial, &b.blade_le_radial),
         ("blade_te_radial", &a.blade_te_radial, &b.blade_te_radial),
         ("casing_radial", &a.casing_radial, &b.casing_radial),

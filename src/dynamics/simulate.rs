@@ -686,7 +686,7 @@ impl<'a> Simulation<'a> {
         let start = std::time::Instant::now();
         self.clock = StageClock::new();
         while self.steps_done < self.summary.n_steps {
-            if self.steps_done % 1024 == 0
+            if self.steps_done.is_multiple_of(1024)
                 && let Some(c) = cancel
                 && c.load(Ordering::Relaxed)
             {
@@ -725,7 +725,7 @@ impl<'a> Simulation<'a> {
         // The same expression as the next step's t_n (the fused predictor checks its amplitude).
         self.t1 = (self.steps_done + 1) as f64 * h;
         self.r_om = rot_z(self.case.omega * self.t1);
-        self.sample_step = (self.steps_done + 1) % self.case.numerics.decimation == 0;
+        self.sample_step = (self.steps_done + 1).is_multiple_of(self.case.numerics.decimation);
         self.blades.kernel.get_mut().predict(0.0);
         if let Some(f) = self.casing.flexible.as_mut() {
             f.kernel.get_mut().predict(self.case.load_factor(t_n));
@@ -1090,7 +1090,7 @@ impl<'a> Simulation<'a> {
         if let Some(c) = self.coating.as_mut() {
             c.commit()?;
         }
-        if self.steps_done % 64 == 0
+        if self.steps_done.is_multiple_of(64)
             && !(b.kernel.get().is_finite()
                 && cs
                     .flexible
