@@ -12,7 +12,7 @@ use rubscan::dynamics::{Case, CasingModel, CoatingCase, LobeLoad, Numerics, Simu
 use rubscan::model::build::{CasingSpec, ImpellerSpec};
 use rubscan::model::rom::CyclicRom;
 use rubscan::sweep::aggregate::JobAggregator;
-use rubscan::sweep::simulator::{rigid_casing, rigid_meridian};
+use rubscan::sweep::simulator::{rigid_casing, rigid_meridian, tip_rows};
 
 /// Per-blade (or per-probe, per-nodal-diameter) series `[index][sample]`.
 type Series = Vec<Vec<f64>>;
@@ -165,16 +165,7 @@ fn decimation_does_not_change_a_coated_flexible_casing_run() {
 #[test]
 fn decimation_does_not_change_a_rigid_casing_run() {
     let (imp, _) = paper_models();
-    let tips: Vec<[f64; 2]> = {
-        let mut rows: Vec<(usize, [f64; 2])> = imp
-            .contact_nodes
-            .iter()
-            .map(|c| (c.row, [c.position[0].hypot(c.position[1]), c.position[2]]))
-            .collect();
-        rows.sort_by_key(|r| r.0);
-        rows.dedup_by_key(|r| r.0);
-        rows.into_iter().map(|(_, p)| p).collect()
-    };
+    let tips = tip_rows(&imp);
     // A casing 0.1 mm off the tips, distorted in 3 lobes of 0.2 mm: the blades rub at every
     // lobe passage.
     let h = 1e-7;

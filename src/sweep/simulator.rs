@@ -137,8 +137,9 @@ pub fn rigid_casing(
     }
 }
 
-/// `(r, z)` of the impeller's contact nodes, one per contact row, in row order.
-fn tip_rows(rom: &CyclicRom) -> Vec<[f64; 2]> {
+/// `(r, z)` (m) of the impeller's contact nodes, one per contact row, in row order: the
+/// blade-tip meridian a rigid casing follows ([`rigid_meridian`]).
+pub fn tip_rows(rom: &CyclicRom) -> Vec<[f64; 2]> {
     let mut rows: Vec<(usize, [f64; 2])> = rom
         .contact_nodes
         .iter()
