@@ -205,11 +205,20 @@ impl ControlFlexTable {
         // with the weights w^k_a w^l_b.
         let wkl: [[f64; 4]; 4] = std::array::from_fn(|a| std::array::from_fn(|b| wk[a] * wl[b]));
         let first = sk * st + sl;
-        let v: [[f64; 12]; 7] = std::array::from_fn(|di| {
-            let d = (pk.i + n * 4 + di - 3 - pl.i) % n;
+        // A plain loop, not `array::from_fn`: its closure would be compiled apart, without
+        // the pass's target features, so the kernel could not inline into it (and `isa` would
+        // not be a constant there). Uninitialised, not zeroed: no `memset` per call.
+        let mut v = [std::mem::MaybeUninit::<[f64; 12]>::uninit(); 7];
+        // Class offsets i_k − i_l + δ for δ = −3..=3, wrapped.
+        let mut d = (pk.i + n * 4 - 3 - pl.i) % n;
+        for vd in &mut v {
             let t = &self.flat[table_index(st, d, 0, (0, 0))..table_index(st, d + 1, 0, (0, 0))];
-            simd::meridian_sums(isa, t, st, first, &wkl)
-        });
+            vd.write(simd::meridian_sums(isa, t, st, first, &wkl));
+            d = if d + 1 == n { 0 } else { d + 1 };
+        }
+        // SAFETY: the loop above wrote all seven entries (read in place: a `transmute` would
+        // copy the array).
+        let v = unsafe { &*v.as_ptr().cast::<[[f64; 12]; 7]>() };
         let mut out = Matrix3::zeros();
         for beta in 0..4 {
             let mut mb = [0.0f64; 12];
