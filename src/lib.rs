@@ -6,6 +6,8 @@
 //! - [`dynamics`]: explicit time integration with Lagrange-multiplier contact, friction, abradable coating;
 //! - [`analysis`]: spectra, linear interaction criterion, strain energy per nodal diameter;
 //! - [`sweep`]: sweep specification, planner, runner;
+//! - [`simd`]: the explicit SIMD kernels (AVX2/FMA) with their portable twins, and the choice
+//!   between them (made once; `RUBSCAN_SIMD=portable` forces the portable path);
 //! - [`io`]: ROM files and cache, FE model readers, Parquet tables, plots (the only modules that
 //!   touch the file system);
 //! - [`app`]: each `rubscan` subcommand as a library call (the binary only parses arguments).
@@ -18,4 +20,5 @@ pub mod contact;
 pub mod dynamics;
 pub mod io;
 pub mod model;
+pub mod simd;
 pub mod sweep;

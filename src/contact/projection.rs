@@ -11,6 +11,7 @@
 //! curve `v = 0` of row 0 or `v = 1` of row `M−2`).
 
 use super::spline::{CasingSpline, SplineError, SurfaceParam};
+use crate::simd::{self, Isa};
 use nalgebra::Vector3;
 use thiserror::Error;
 
@@ -376,7 +377,7 @@ impl GapBounds {
         check_lengths(xs.len(), warm.len(), out.len())?;
         check_lengths(xs.len(), self.gap.len(), out.len())?;
         if self.q_last.len() == q.len() {
-            self.drift += largest_move(&mut self.q_last, q);
+            self.drift += largest_move(Isa::selected(), &mut self.q_last, q);
         } else {
             // A new surface (first call): no earlier bound applies.
             self.q_last = q.to_vec();
@@ -488,67 +489,14 @@ impl GapBounds {
 }
 
 /// The largest distance (m) between the points of `last` and `now`, which then replace
-/// `last`. A step scans every control point of the casing: explicit AVX2 code when the CPU
-/// has it.
-fn largest_move(last: &mut [Vector3<f64>], now: &[Vector3<f64>]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2 (checked just above).
-            return unsafe { largest_move_avx2(last, now) };
-        }
-    }
-    let mut largest = 0.0f64;
-    for (l, x) in last.iter_mut().zip(now) {
-        largest = largest.max((x - *l).norm_squared());
-        *l = *x;
-    }
-    largest.sqrt()
-}
-
-/// [`largest_move`] over flat runs of four points (twelve coordinates, three vectors
-/// `[x₀ y₀ z₀ x₁] [y₁ z₁ x₂ y₂] [z₂ x₃ y₃ z₃]` of squared differences `a, b, c`): the four
-/// squared distances are `blend(hadd(a, b), hadd(b, c)) + [a₂ a₃ c₀ c₁]`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn largest_move_avx2(last: &mut [Vector3<f64>], now: &[Vector3<f64>]) -> f64 {
-    use std::arch::x86_64::{
-        _mm256_add_pd, _mm256_blend_pd, _mm256_hadd_pd, _mm256_loadu_pd, _mm256_max_pd,
-        _mm256_mul_pd, _mm256_permute2f128_pd, _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd,
-    };
-    let last: &mut [f64] = bytemuck::cast_slice_mut(last);
-    let now: &[f64] = bytemuck::cast_slice(now);
-    let mut runs_last = last.chunks_exact_mut(12);
-    let mut runs_now = now.chunks_exact(12);
-    let mut largest = _mm256_setzero_pd();
-    for (l, x) in (&mut runs_last).zip(&mut runs_now) {
-        // SAFETY: both runs hold 12 values.
-        unsafe {
-            let mut sq = [_mm256_setzero_pd(); 3];
-            for (i, sq) in sq.iter_mut().enumerate() {
-                let (xv, lv) = (x.as_ptr().add(4 * i), l.as_mut_ptr().add(4 * i));
-                let xv = _mm256_loadu_pd(xv);
-                let d = _mm256_sub_pd(xv, _mm256_loadu_pd(lv));
-                *sq = _mm256_mul_pd(d, d);
-                _mm256_storeu_pd(lv, xv);
-            }
-            let [a, b, c] = sq;
-            let pairs = _mm256_blend_pd::<0b1100>(_mm256_hadd_pd(a, b), _mm256_hadd_pd(b, c));
-            let dist2 = _mm256_add_pd(pairs, _mm256_permute2f128_pd::<0x21>(a, c));
-            largest = _mm256_max_pd(largest, dist2);
-        }
-    }
-    let mut lanes = [0.0f64; 4];
-    // SAFETY: four lanes into four values.
-    unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), largest) };
-    let mut largest = lanes.iter().fold(0.0f64, |m, v| m.max(*v));
-    let (l, x) = (runs_last.into_remainder(), runs_now.remainder());
-    for (l, x) in l.chunks_exact_mut(3).zip(x.chunks_exact(3)) {
-        let d2: f64 = l.iter().zip(x).map(|(l, x)| (x - l) * (x - l)).sum();
-        largest = largest.max(d2);
-        l.copy_from_slice(x);
-    }
-    largest.sqrt()
+/// `last`. A step scans every control point of the casing: [`simd::largest_move`] on the
+/// process's SIMD path.
+fn largest_move(isa: Isa, last: &mut [Vector3<f64>], now: &[Vector3<f64>]) -> f64 {
+    simd::largest_move(
+        isa,
+        bytemuck::cast_slice_mut(last),
+        bytemuck::cast_slice(now),
+    )
 }
 
 /// Cold-start guess (paper §3.1): centre of the patch, among those touching the
@@ -642,7 +590,7 @@ mod tests {
                 let mut now: Vec<Vector3<f64>> = last.iter().map(|p| p + random() * 1e-6).collect();
                 now[far] = last[far] + random();
                 let want = (now[far] - last[far]).norm();
-                let got = largest_move(&mut last, &now);
+                let got = largest_move(Isa::selected(), &mut last, &now);
                 // The vector sums may add the squares in another order.
                 assert!(
                     (got - want).abs() <= 1e-15 * want,

@@ -15,6 +15,7 @@
 
 use crate::contact::CasingSpline;
 use crate::dynamics::kernel::StructureKernel;
+use crate::simd::{self, Isa};
 use nalgebra::{Matrix3, Vector3};
 
 /// Rotation about z by `angle` (rad).
@@ -84,10 +85,13 @@ pub struct ControlFlexTable {
     flat: Vec<f64>,
     /// cos, sin of cl·α per class.
     cs: Vec<(f64, f64)>,
+    /// The SIMD path of [`ControlFlexTable::pair_block`], chosen when built.
+    isa: Isa,
 }
 
 impl ControlFlexTable {
     /// Builds `T` by probing the casing kernel with `3M` unit control-point forces on column 1.
+    /// Its SIMD path is [`Isa::selected`] at this call.
     pub fn build(kernel: &mut dyn StructureKernel, spline: &CasingSpline) -> Self {
         let (n, m) = (spline.n_sectors(), spline.nodes_per_sector());
         let nb = kernel.n_boundary();
@@ -143,7 +147,13 @@ impl ControlFlexTable {
             .map(|c| (c as f64 * alpha).sin_cos())
             .map(|(s, c)| (c, s))
             .collect();
-        Self { n, m, flat, cs }
+        Self {
+            n,
+            m,
+            flat,
+            cs,
+            isa: Isa::selected(),
+        }
     }
 
     /// Casing contribution to `W` of the pair (k, l): `n_kᵀ V(k, l) f_l`, see
@@ -163,48 +173,24 @@ impl ControlFlexTable {
     /// control points and basis weights `c` (eq. 18). `V(l, k) = V(k, l)ᵀ` (Maxwell–Betti), so
     /// a contact matrix needs it once per unordered pair. The tensor-product weights are
     /// contracted along the meridian first, for the 7 distinct circumferential offsets, by
-    /// the products `w^k_a w^l_b` with the table's rows of four (~2.4k flops). AVX2/FMA code
-    /// when the CPU has it (runtime check; the same sums, fused).
+    /// the products `w^k_a w^l_b` with the table's rows of four (~2.4k flops,
+    /// [`simd::meridian_sums`]), compiled for the table's SIMD path (its multiply-adds fused
+    /// where that path fuses them).
     pub fn pair_block(
         &self,
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
     ) -> Matrix3<f64> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                // SAFETY: the CPU supports the enabled features (checked just above).
-                return unsafe { self.pair_block_avx2(pk, pl) };
-            }
-        }
-        self.pair_block_impl::<false>(pk, pl, meridian_sums)
+        simd::compiled_for(self.isa, |isa| self.pair_block_impl(isa, pk, pl))
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn pair_block_avx2(
-        &self,
-        pk: &crate::contact::SurfaceParam,
-        pl: &crate::contact::SurfaceParam,
-    ) -> Matrix3<f64> {
-        // SAFETY: this function runs only on CPUs with AVX2 and FMA.
-        self.pair_block_impl::<true>(pk, pl, |t, rows, wkl| unsafe {
-            meridian_sums_avx2(t, rows, wkl)
-        })
-    }
-
-    /// With `FMA`, the products are fused multiply-adds (Rust never contracts `a * b + c`
-    /// itself); without, they are plain products and sums (no slow software `fma`).
-    /// `sums(t, rows, w)`: the nine entries of `Σ_a Σ_b w[a][b] T[r1 = ra][r2 = rb]` of the
-    /// blocks `t` of one offset (see [`meridian_sums`]).
+    /// [`ControlFlexTable::pair_block`] on the path `isa`.
     #[inline(always)]
-    fn pair_block_impl<const FMA: bool>(
+    fn pair_block_impl(
         &self,
+        isa: Isa,
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
-        sums: impl Fn(&[f64], MeridianRows, &[[f64; 4]; 4]) -> [f64; 12],
     ) -> Matrix3<f64> {
         use crate::contact::spline::{cubic_basis, real_row_weights};
         let (n, m) = (self.n, self.m);
@@ -218,25 +204,28 @@ impl ControlFlexTable {
         // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ, the meridian rows contracted
         // with the weights w^k_a w^l_b.
         let wkl: [[f64; 4]; 4] = std::array::from_fn(|a| std::array::from_fn(|b| wk[a] * wl[b]));
-        let rows = MeridianRows {
-            stride: st,
-            first: sk * st + sl,
-        };
-        let v: [[f64; 12]; 7] = std::array::from_fn(|di| {
-            let d = (pk.i + n * 4 + di - 3 - pl.i) % n;
-            sums(
-                &self.flat[table_index(st, d, 0, (0, 0))..table_index(st, d + 1, 0, (0, 0))],
-                rows,
-                &wkl,
-            )
-        });
+        let first = sk * st + sl;
+        // A plain loop, not `array::from_fn`: its closure would be compiled apart, without
+        // the pass's target features, so the kernel could not inline into it (and `isa` would
+        // not be a constant there). Uninitialised, not zeroed: no `memset` per call.
+        let mut v = [std::mem::MaybeUninit::<[f64; 12]>::uninit(); 7];
+        // Class offsets i_k − i_l + δ for δ = −3..=3, wrapped.
+        let mut d = (pk.i + n * 4 - 3 - pl.i) % n;
+        for vd in &mut v {
+            let t = &self.flat[table_index(st, d, 0, (0, 0))..table_index(st, d + 1, 0, (0, 0))];
+            vd.write(simd::meridian_sums(isa, t, st, first, &wkl));
+            d = if d + 1 == n { 0 } else { d + 1 };
+        }
+        // SAFETY: the loop above wrote all seven entries (read in place: a `transmute` would
+        // copy the array).
+        let v = unsafe { &*v.as_ptr().cast::<[[f64; 12]; 7]>() };
         let mut out = Matrix3::zeros();
         for beta in 0..4 {
             let mut mb = [0.0f64; 12];
             for alpha in 0..4 {
                 let m = &v[alpha + 3 - beta];
                 for e in 0..12 {
-                    mb[e] = madd::<FMA>(uk[alpha], m[e], mb[e]);
+                    mb[e] = simd::madd_for(isa, uk[alpha], m[e], mb[e]);
                 }
             }
             // Column-major 3×3 (nalgebra layout), in the frame of class clb: R mb Rᵀ, with R
@@ -290,69 +279,6 @@ fn table_index(st: usize, d: usize, e: usize, (r1, r2): (usize, usize)) -> usize
     ((d * 9 + e) * st + r1) * st + r2
 }
 
-/// Where the 4 × 4 meridian rows of a pair sit in one `S × S` block of the table
-/// ([`ControlFlexTable`]): row `a` of the first contact, `b` of the second at
-/// `first + a·stride + b`.
-#[derive(Clone, Copy)]
-struct MeridianRows {
-    stride: usize,
-    first: usize,
-}
-
-/// `V_δ[e] = Σ_a Σ_b w[a][b] t_e[rows(a, b)]` for the nine entries `e` of the 3×3 blocks `t`
-/// of one class offset (nine `S × S` blocks, entry-major), as in [`ControlFlexTable::pair_block`];
-/// lanes 9..12 zero. Four lanes `b` at a time, summed in the order `(b₀ + b₁) + (b₂ + b₃)`.
-fn meridian_sums(t: &[f64], rows: MeridianRows, w: &[[f64; 4]; 4]) -> [f64; 12] {
-    let mut v = [0.0f64; 12];
-    for (ve, t) in v.iter_mut().zip(t.chunks_exact(rows.stride * rows.stride)) {
-        let mut lanes = [0.0f64; 4];
-        for (a, wa) in w.iter().enumerate() {
-            let row = &t[rows.first + a * rows.stride..][..4];
-            for b in 0..4 {
-                lanes[b] += wa[b] * row[b];
-            }
-        }
-        *ve = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
-    }
-    v
-}
-
-/// [`meridian_sums`] in explicit AVX2/FMA code: one vector per row of four, nine
-/// accumulators in registers, their lane sums reduced four at a time.
-///
-/// # Safety
-/// The CPU has AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn meridian_sums_avx2(t: &[f64], rows: MeridianRows, w: &[[f64; 4]; 4]) -> [f64; 12] {
-    use crate::dynamics::modal::lane_sums4;
-    use std::arch::x86_64::{
-        __m256d, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_setzero_pd,
-        _mm256_storeu_pd,
-    };
-    let (st, first) = (rows.stride, rows.first);
-    // The last row read of the last block lies inside `t`.
-    assert!(first + 3 * st + 4 <= st * st && t.len() >= 9 * st * st);
-    let mut v = [0.0f64; 12];
-    // SAFETY: every row read lies inside `t` (asserted above); `v` holds 12 values.
-    unsafe {
-        let wv: [__m256d; 4] = std::array::from_fn(|a| _mm256_loadu_pd(w[a].as_ptr()));
-        let acc: [__m256d; 9] = std::array::from_fn(|e| {
-            let row = |a: usize| _mm256_loadu_pd(t.as_ptr().add(e * st * st + first + a * st));
-            let s = _mm256_mul_pd(wv[0], row(0));
-            let s = _mm256_fmadd_pd(wv[1], row(1), s);
-            let s = _mm256_fmadd_pd(wv[2], row(2), s);
-            _mm256_fmadd_pd(wv[3], row(3), s)
-        });
-        let z = _mm256_setzero_pd();
-        let p = v.as_mut_ptr();
-        _mm256_storeu_pd(p, lane_sums4(acc[0], acc[1], acc[2], acc[3]));
-        _mm256_storeu_pd(p.add(4), lane_sums4(acc[4], acc[5], acc[6], acc[7]));
-        _mm256_storeu_pd(p.add(8), lane_sums4(acc[8], z, z, z));
-    }
-    v
-}
-
 /// `R M Rᵀ` for the column-major 3×3 `M` in `m[..9]` and the rotation `R` about z by the
 /// angle of `(cos, sin)`: the 2×2 block turns on both sides, the z column and row on one.
 #[inline(always)]
@@ -371,12 +297,6 @@ fn rotate_about_z((c, s): (f64, f64), m: &[f64; 12]) -> Matrix3<f64> {
         s * m[2] + c * m[5],
         m[8],
     )
-}
-
-/// `a·b + c`, fused when `FMA` (callers compiled with the `fma` target feature).
-#[inline(always)]
-fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
-    if FMA { a.mul_add(b, c) } else { a * b + c }
 }
 
 /// Solves `W_AA λ_A = −d_A` on an active set that starts with every candidate and drops the
@@ -525,6 +445,44 @@ mod tests {
                 let (v, vt) = (tab.pair_block(pk, pl), tab.pair_block(pl, pk).transpose());
                 assert!((v - vt).norm() <= 1e-10 * v.norm(), "{v} vs {vt}");
             }
+        }
+    }
+
+    /// One table's pair blocks on the portable path equal those on the best path (to
+    /// round-off: the portable path may not fuse its multiply-adds).
+    #[test]
+    fn pair_blocks_agree_on_both_paths() {
+        use crate::contact::SurfaceParam;
+        use crate::dynamics::modal::ModalKernel;
+        use crate::dynamics::structure::Structure;
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let best = Isa::best();
+        if best.is_portable() {
+            eprintln!("no explicit SIMD path on this CPU: pair blocks not compared");
+            return;
+        }
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 5, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let spline = CasingSpline::new(8, 5).unwrap();
+        let mut k = ModalKernel::new(&st, 0.2 * st.stability_limit()).unwrap();
+        let mut explicit = ControlFlexTable::build(&mut k, &spline);
+        explicit.isa = best;
+        let portable = ControlFlexTable {
+            isa: Isa::PORTABLE,
+            ..explicit.clone()
+        };
+        let mut rng = crate::dynamics::synthetic::Lcg(3);
+        let mut param = || SurfaceParam {
+            i: (4.0 * (rng.next() + 1.0)) as usize % 8,
+            j: (2.0 * (rng.next() + 1.0)) as usize % 4,
+            u: 0.5 * (rng.next() + 1.0),
+            v: 0.5 * (rng.next() + 1.0),
+        };
+        for _ in 0..20 {
+            let (pk, pl) = (param(), param());
+            let (a, b) = (explicit.pair_block(&pk, &pl), portable.pair_block(&pk, &pl));
+            assert!((a - b).norm() <= 1e-13 * a.norm(), "{a} vs {b}");
         }
     }
 

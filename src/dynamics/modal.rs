@@ -30,30 +30,19 @@
 //! - **Harmonic-major rows.** The spectra are kept as the per-ND real rows `[a; b]` that the
 //!   products read and write in place; the sector DFTs do the complex packing.
 //! - The per-ND products of a complex harmonic take both halves of a J-pair in one pass over
-//!   the stored half basis (`expand_avx2`, `project_avx2`: explicit AVX2/FMA code when the
-//!   CPU has it, for the real harmonics too); otherwise small GEMVs ([`gemv`], [`gemv_t`]).
+//!   the stored half basis ([`simd::expand`], [`simd::project`], for the real harmonics
+//!   too). Those and the sector DFTs' direct sums are the kernels of [`crate::simd`]:
+//!   explicit AVX2/FMA code or its portable twin, the choice made once when the kernel is
+//!   built ([`ModalKernel::isa`]), and the per-step passes run compiled for it
+//!   ([`simd::compiled_for`]).
 use crate::contact::CasingSpline;
 use crate::dynamics::kernel::{Energies, StructureKernel};
 use crate::dynamics::structure::{NdBlock, Structure, StructureError};
+use crate::simd::{self, Isa};
 use nalgebra::{DMatrix, DVector};
 use realfft::num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::sync::Arc;
-
-/// `f::<W>(args)`, or `f::<W, G…>(args)` for `f::<G…>(args)`, with the compile-time width
-/// `W = min(left, 4)` (`left ≥ 1`): the explicit SIMD kernels take bands of up to four
-/// vectors or columns, with their accumulators in registers.
-#[cfg(target_arch = "x86_64")]
-macro_rules! by_width {
-    ($left:expr, $f:ident $(::<$($g:tt),*>)? ($($arg:expr),*)) => {
-        match $left {
-            1 => $f::<1 $($(, $g)*)?>($($arg),*),
-            2 => $f::<2 $($(, $g)*)?>($($arg),*),
-            3 => $f::<3 $($(, $g)*)?>($($arg),*),
-            _ => $f::<4 $($(, $g)*)?>($($arg),*),
-        }
-    };
-}
 
 struct Block {
     offset: usize,
@@ -131,8 +120,6 @@ pub struct ModalKernel {
     fspec: Vec<f64>,
     /// Modal increment of one block (`dim` ≤ max block size).
     deta: Vec<f64>,
-    /// Second half-basis product of a complex harmonic (work buffer, `2 nbp`).
-    yb: Vec<f64>,
     /// Boundary rows per part, padded: `nb` rounded up to a multiple of 4.
     nbp: usize,
     tbuf: Vec<f64>,
@@ -146,7 +133,7 @@ pub struct ModalKernel {
     /// Their loads, `nbp` rows each (work buffer).
     fload: Vec<f64>,
     /// The four partial sums of one sector of the folded inverse DFT, `nbp` rows each
-    /// (work buffer, see [`ModalKernel::folded_rows_to_boundary_avx2`]).
+    /// (work buffer, see [`ModalKernel::folded_rows_to_boundary`]).
     fold: Vec<f64>,
     cbuf: Vec<Complex64>,
     /// The `c2r` spectra of every boundary channel (`nb` × N/2+1, channel-major; work buffer).
@@ -159,11 +146,14 @@ pub struct ModalKernel {
     n_modes: Vec<usize>,
     modes_full: Vec<DMatrix<f64>>,
     masses: Vec<DMatrix<f64>>,
+    /// The SIMD path of the per-step kernels, chosen at construction.
+    isa: Isa,
 }
 
 impl ModalKernel {
     /// Builds the kernel for `st` with time step `h` (s); `h` is checked by the caller. Fails
     /// only if the eigenvectors of a complex harmonic cannot be paired (see `paired_modes`).
+    /// Its SIMD path is [`Isa::selected`] at this call.
     pub fn new(st: &Structure, h: f64) -> Result<Self, StructureError> {
         let ns = st.n_sectors;
         let nb = st.n_boundary;
@@ -258,7 +248,6 @@ impl ModalKernel {
             pred_amplitude: None,
             descending: false,
             deta: vec![0.0; st.blocks.iter().map(|b| b.dim).max().unwrap_or(0)],
-            yb: vec![0.0; 2 * nbp],
             tbuf: vec![0.0; ns],
             dft_weights,
             loaded: Vec::with_capacity(ns),
@@ -274,7 +263,13 @@ impl ModalKernel {
             n_modes,
             modes_full,
             masses,
+            isa: Isa::selected(),
         })
+    }
+
+    /// The SIMD path of the per-step kernels (fixed at construction).
+    pub fn isa(&self) -> Isa {
+        self.isa
     }
 
     /// Static boundary displacements `K(Ω)⁻¹ f` (m) of boundary forces `f` (N, sector-major),
@@ -326,10 +321,9 @@ impl ModalKernel {
         };
         let stride = 2 * self.nbp;
         for (k, b) in self.blocks.iter().enumerate() {
-            let yb = &mut self.yb[..b.rows];
             let basis = if out_is_ub { b.step_basis() } else { &b.phib };
             let x = &mut spec[k * stride..k * stride + b.rows];
-            expand(b, basis, &eta[b.offset..b.offset + b.dim], x, yb);
+            expand(self.isa, b, basis, &eta[b.offset..b.offset + b.dim], x);
         }
         if out_is_ub {
             self.rows_to_boundary(true, &mut []);
@@ -341,17 +335,15 @@ impl ModalKernel {
     /// Inverse real DFT of every boundary channel of the harmonic rows `spec_state` (into `ub`)
     /// or `spec` (into `out`): `u_s = Σ_k w_k (a_k cos kθ_s + b_k sin kθ_s)` (module doc of
     /// `structure`). Up to [`DIRECT_SYNTH_SECTORS`] sectors the sums are taken directly,
-    /// folded by symmetry ([`ModalKernel::folded_rows_to_boundary_avx2`]); otherwise one
+    /// folded by symmetry ([`ModalKernel::folded_rows_to_boundary`]); otherwise one
     /// inverse real FFT per channel, harmonic k entering its spectrum as `w a` (real
     /// harmonic) or `w (a − i b)/2`.
     fn rows_to_boundary(&mut self, state: bool, out: &mut [f64]) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if self.ns <= DIRECT_SYNTH_SECTORS && has_avx2_fma() {
-                // SAFETY: the CPU supports the enabled features (checked just above).
-                unsafe { self.folded_rows_to_boundary_avx2(state, out) };
-                return;
-            }
+        if self.ns <= DIRECT_SYNTH_SECTORS {
+            simd::compiled_for(self.isa, |isa| {
+                self.folded_rows_to_boundary(isa, state, out);
+            });
+            return;
         }
         let (nb, nbp) = (self.nb, self.nbp);
         let (rows, target): (&[f64], &mut [f64]) = if state {
@@ -397,10 +389,10 @@ impl ModalKernel {
     /// `u_s = E + O`, `u_{N−s} = E − O` (`E = E₊ + E₋`, `O = O₊ + O₋`),
     /// `u_{N/2−s} = E' − O'`, `u_{N/2+s} = E' + O'` (`E' = E₊ − E₋`, `O' = O₊ − O₋`);
     /// for odd N only the first fold applies (sectors s ≤ N/2). A quarter of the products
-    /// of the plain sums; the sums of a band of up to 16 rows stay in registers.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn folded_rows_to_boundary_avx2(&mut self, state: bool, out: &mut [f64]) {
+    /// of the plain sums; the sums of a band of up to 16 rows stay in registers
+    /// ([`simd::fold_sums`], [`simd::store_folded`]).
+    #[inline(always)]
+    fn folded_rows_to_boundary(&mut self, isa: Isa, state: bool, out: &mut [f64]) {
         let (nb, nbp, ns) = (self.nb, self.nbp, self.ns);
         let nh = self.blocks.len();
         let (rows, target): (&[f64], &mut [f64]) = if state {
@@ -416,24 +408,12 @@ impl ModalKernel {
         let (e_odd, o_odd) = rest.split_at_mut(nbp);
         for s in 0..=last {
             let w = &self.dft_weights[s * nh..(s + 1) * nh];
-            let mut r = 0;
-            while r < nbp {
-                // SAFETY: rows r..r + 4W lie inside both parts of every harmonic's rows and
-                // inside the sums (`nbp` is a multiple of 4); the weights hold `nh` harmonics.
-                unsafe {
-                    by_width!((nbp - r) / 4, fold_band(w, rows, nbp, r, 0, stride, e, o));
-                    if even {
-                        by_width!(
-                            (nbp - r) / 4,
-                            fold_band(w, rows, nbp, r, 1, stride, e_odd, o_odd)
-                        );
-                    }
-                }
-                r += 16.min(nbp - r);
+            simd::fold_sums(isa, w, rows, nbp, 0, stride, e, o);
+            if even {
+                simd::fold_sums(isa, w, rows, nbp, 1, stride, e_odd, o_odd);
             }
             let sums = [&*e, &*o, &*e_odd, &*o_odd];
-            // SAFETY: `target` holds N sectors of `nb` rows, the sums `nbp` rows each.
-            unsafe { store_folded(target, nb, sums, s, even.then_some(ns / 2)) };
+            simd::store_folded(isa, target, nb, sums, s, even.then_some(ns / 2));
         }
     }
 
@@ -456,15 +436,16 @@ impl ModalKernel {
             for (fl, &s) in self.fload.chunks_exact_mut(nbp).zip(&self.loaded) {
                 fl[..nb].copy_from_slice(&forces[s * nb..(s + 1) * nb]);
             }
-            #[cfg(target_arch = "x86_64")]
-            {
-                if has_avx2_fma() {
-                    // SAFETY: the CPU supports the enabled features (checked just above).
-                    unsafe { self.direct_force_rows_avx2() };
-                    return;
-                }
-            }
-            self.direct_force_rows();
+            let (weights, nh) = (&self.dft_weights, self.blocks.len());
+            simd::dft_rows(
+                self.isa,
+                weights,
+                nh,
+                &self.loaded,
+                &self.fload,
+                nbp,
+                &mut self.fspec,
+            );
             return;
         }
         for r in 0..nb {
@@ -492,49 +473,6 @@ impl ModalKernel {
         }
     }
 
-    /// The direct sums of [`ModalKernel::forces_to_rows`] over the `loaded` sectors, whose
-    /// loads are in `fload`, with the weights of `dft_weights`.
-    fn direct_force_rows(&mut self) {
-        let (nbp, nh) = (self.nbp, self.blocks.len());
-        for (k, x) in self.fspec.chunks_exact_mut(2 * nbp).enumerate() {
-            let (xa, xb) = x.split_at_mut(nbp);
-            xa.fill(0.0);
-            xb.fill(0.0);
-            for (&s, fl) in self.loaded.iter().zip(self.fload.chunks_exact(nbp)) {
-                let (c, sn) = self.dft_weights[s * nh + k];
-                for ((a, bb), f) in xa.iter_mut().zip(xb.iter_mut()).zip(fl) {
-                    *a = c.mul_add(*f, *a);
-                    *bb = sn.mul_add(*f, *bb);
-                }
-            }
-        }
-    }
-
-    /// [`ModalKernel::direct_force_rows`] in explicit AVX2/FMA code: per harmonic, the sums of
-    /// a band of up to 16 rows stay in registers over the loaded sectors (the same products
-    /// and order of accumulation).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn direct_force_rows_avx2(&mut self) {
-        let (nbp, nh) = (self.nbp, self.blocks.len());
-        for (k, x) in self.fspec.chunks_exact_mut(2 * nbp).enumerate() {
-            let (xa, xb) = x.split_at_mut(nbp);
-            let weights = &self.dft_weights[k..];
-            let mut r = 0;
-            while r < nbp {
-                // SAFETY: rows r..r + 4W lie inside every load of `fload` and in `xa`, `xb`
-                // (`nbp` is a multiple of 4); a loaded sector s < N has its weight at s·nh.
-                unsafe {
-                    by_width!(
-                        (nbp - r) / 4,
-                        dft_band(weights, nh, &self.loaded, &self.fload, nbp, r, xa, xb)
-                    )
-                }
-                r += 16.min(nbp - r);
-            }
-        }
-    }
-
     /// Fused `A⁻¹ f` of the force rows in `fspec`, one nodal diameter at a time:
     /// `Δη = diag(1/a) Φ_bᵀ F_k`, then `ΔU_k = Φ_b Δη` while Φ_b is hot in cache. `target`
     /// says where the increment goes (see [`ForceTarget`]). With `next = Some(a)` (and a state
@@ -544,28 +482,16 @@ impl ModalKernel {
     /// successive passes take them in opposite orders (see `descending`), with the same
     /// results.
     fn apply_force_spectrum(&mut self, target: ForceTarget, next: Option<f64>) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if has_avx2_fma() {
-                // SAFETY: the CPU supports the enabled features (checked just above).
-                unsafe { self.apply_force_spectrum_avx2(target, next) };
-                return;
-            }
-        }
-        self.apply_force_spectrum_impl(target, next);
-    }
-
-    /// [`ModalKernel::apply_force_spectrum`] compiled for AVX2: its per-mode and per-row loops
-    /// (scaling, accumulation, the predictor recurrence) run four wide. Same arithmetic: Rust
-    /// does not contract `a * b + c` into FMAs.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn apply_force_spectrum_avx2(&mut self, target: ForceTarget, next: Option<f64>) {
-        self.apply_force_spectrum_impl(target, next);
+        // Compiled for the kernel's path: the per-mode loops (scaling, accumulation, the
+        // predictor recurrence) vectorise with it. Same arithmetic on every path: Rust does
+        // not contract `a * b + c` into FMAs.
+        simd::compiled_for(self.isa, |isa| {
+            self.apply_force_spectrum_impl(isa, target, next);
+        });
     }
 
     #[inline(always)]
-    fn apply_force_spectrum_impl(&mut self, target: ForceTarget, next: Option<f64>) {
+    fn apply_force_spectrum_impl(&mut self, isa: Isa, target: ForceTarget, next: Option<f64>) {
         let stride = 2 * self.nbp;
         let nh = self.blocks.len();
         self.descending = !self.descending;
@@ -574,16 +500,15 @@ impl ModalKernel {
             let b = &self.blocks[k];
             let chunk = k * stride..k * stride + b.rows;
             let xb = &mut self.xb[..b.rows];
-            let yb = &mut self.yb[..b.rows];
             let r = b.offset..b.offset + b.dim;
             let deta = &mut self.deta[..b.dim];
-            project(b, b.step_basis(), &self.fspec[chunk.clone()], yb, deta);
+            project(isa, b, b.step_basis(), &self.fspec[chunk.clone()], deta);
             match target {
                 ForceTarget::Response => {
                     for (x, &c2) in deta.iter_mut().zip(&self.c2[r]) {
                         *x *= c3_of(c2, self.half_h2);
                     }
-                    expand(b, b.step_basis(), deta, &mut self.spec[chunk], yb);
+                    expand(isa, b, b.step_basis(), deta, &mut self.spec[chunk]);
                 }
                 ForceTarget::State { channels } => {
                     let coefs = [&self.c1[r.clone()], &self.c2[r.clone()]];
@@ -594,12 +519,12 @@ impl ModalKernel {
                     let past = (&self.eta[r.clone()], load);
                     correct_modes(deta, &mut self.eta_next[r], coefs, self.half_h2, past, pred);
                     if channels {
-                        expand(b, b.step_basis(), deta, xb, yb);
+                        expand(isa, b, b.step_basis(), deta, xb);
                         add_to(&mut self.spec_state[chunk.clone()], xb);
                     }
                     if next.is_some() {
                         let pred = &self.eta_prev[b.offset..b.offset + b.dim];
-                        expand(b, b.step_basis(), pred, &mut self.spec_pred[chunk], yb);
+                        expand(isa, b, b.step_basis(), pred, &mut self.spec_pred[chunk]);
                     }
                 }
             }
@@ -617,15 +542,9 @@ impl ModalKernel {
             Which::Tmp => &mut self.tmp_eta,
         };
         for (k, b) in self.blocks.iter().enumerate() {
-            let yb = &mut self.yb[..b.rows];
             let g = &mut self.deta[..b.dim];
-            project(
-                b,
-                &b.phib,
-                &self.fspec[k * stride..k * stride + b.rows],
-                yb,
-                g,
-            );
+            let x = &self.fspec[k * stride..k * stride + b.rows];
+            project(self.isa, b, &b.phib, x, g);
             for p in 0..b.dim {
                 eta[b.offset + p] += c3_of(self.c2[b.offset + p], self.half_h2) * g[p];
             }
@@ -795,145 +714,23 @@ fn correct_modes(
 
 /// Boundary rows `x = Φ_b η` of one harmonic from the stored half basis `basis`: `x = V η₁ + J V η₂`
 /// with `J [a; b] = [−b; a]` (complex harmonic, `η = [η₁; η₂]`), or `x = V η` (real harmonic).
-/// `y` is a work buffer of the same length as `x`.
-#[inline]
-fn expand(b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64], y: &mut [f64]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe {
-                if b.real {
-                    expand_avx2::<false>(basis, b.rows, &eta[..b.n], x);
-                } else {
-                    expand_avx2::<true>(basis, b.rows / 2, &eta[..2 * b.n], x);
-                }
-            }
-            return;
-        }
-    }
-    x.iter_mut().for_each(|v| *v = 0.0);
-    gemv(basis, b.rows, &eta[..b.n], x);
+#[inline(always)]
+fn expand(isa: Isa, b: &Block, basis: &[f64], eta: &[f64], x: &mut [f64]) {
     if b.real {
-        return;
-    }
-    y.iter_mut().for_each(|v| *v = 0.0);
-    gemv(basis, b.rows, &eta[b.n..2 * b.n], y);
-    let h = b.rows / 2;
-    let (xa, xb) = x.split_at_mut(h);
-    let (ya, yb) = y.split_at_mut(h);
-    for r in 0..h {
-        xa[r] -= yb[r];
-        xb[r] += ya[r];
+        simd::expand::<false>(isa, basis, b.rows, &eta[..b.n], x);
+    } else {
+        simd::expand::<true>(isa, basis, b.rows / 2, &eta[..2 * b.n], x);
     }
 }
 
 /// Modal projection `g = Φ_bᵀ x` of one harmonic's boundary rows: `g₁ = Vᵀ x` and
-/// `g₂ = (J V)ᵀ x = Vᵀ [x_b; −x_a]`. `y` is a work buffer of the same length as `x`.
-#[inline]
-fn project(b: &Block, basis: &[f64], x: &[f64], y: &mut [f64], g: &mut [f64]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if has_avx2_fma() {
-            // SAFETY: the CPU supports the enabled features (checked just above).
-            unsafe {
-                if b.real {
-                    project_avx2::<false>(basis, b.rows, x, &mut g[..b.n]);
-                } else {
-                    project_avx2::<true>(basis, b.rows / 2, x, &mut g[..2 * b.n]);
-                }
-            }
-            return;
-        }
-    }
-    gemv_t(basis, b.rows, x, &mut g[..b.n]);
+/// `g₂ = (J V)ᵀ x = Vᵀ [x_b; −x_a]`.
+#[inline(always)]
+fn project(isa: Isa, b: &Block, basis: &[f64], x: &[f64], g: &mut [f64]) {
     if b.real {
-        return;
-    }
-    let h = b.rows / 2;
-    for r in 0..h {
-        y[r] = x[h + r];
-        y[h + r] = -x[r];
-    }
-    gemv_t(basis, b.rows, y, &mut g[b.n..2 * b.n]);
-}
-
-#[cfg(target_arch = "x86_64")]
-#[inline]
-fn has_avx2_fma() -> bool {
-    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-}
-
-/// [`expand`] in explicit AVX2/FMA code, with the half height `h` (a multiple of 4).
-/// `PAIRED` (a complex harmonic): one pass over its half basis `V = [V_a; V_b]` (`2h` rows,
-/// `η.len()/2` columns), `x_a = V_a η₁ − V_b η₂`, `x_b = V_b η₁ + V_a η₂`, so each basis entry
-/// is loaded once for two products. Otherwise (a real harmonic) `x = V η` with `h` rows.
-/// In bands of up to 16 rows per half, their sums in registers.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn expand_avx2<const PAIRED: bool>(basis: &[f64], h: usize, eta: &[f64], x: &mut [f64]) {
-    let (parts, n) = if PAIRED {
-        (2, eta.len() / 2)
+        simd::project::<false>(isa, basis, b.rows, x, &mut g[..b.n]);
     } else {
-        (1, eta.len())
-    };
-    assert!(basis.len() >= parts * h * n && x.len() >= parts * h && h.is_multiple_of(4));
-    let (e1, e2) = eta.split_at(n);
-    let mut r = 0;
-    while r < h {
-        // SAFETY: rows r..r + 4W of each part lie inside every column and `x` (checked above).
-        unsafe { by_width!((h - r) / 4, expand_band::<PAIRED>(basis, h, e1, e2, x, r)) }
-        r += 16.min(h - r);
-    }
-}
-
-/// Rows `r0..r0 + 4W` of each part of [`expand_avx2`] (`e2` is read only if `PAIRED`).
-///
-/// # Safety
-/// The CPU has AVX2 and FMA; `r0 + 4W ≤ h`, `basis.len() ≥ parts·h·e1.len()`,
-/// `x.len() ≥ parts·h` (`parts` = 2 if `PAIRED`, else 1), `e2.len() ≥ e1.len()` if `PAIRED`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn expand_band<const W: usize, const PAIRED: bool>(
-    basis: &[f64],
-    h: usize,
-    e1: &[f64],
-    e2: &[f64],
-    x: &mut [f64],
-    r0: usize,
-) {
-    use std::arch::x86_64::{
-        _mm256_fmadd_pd, _mm256_fnmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_setzero_pd,
-        _mm256_storeu_pd,
-    };
-    // SAFETY: the caller guarantees the bounds.
-    unsafe {
-        let stride = if PAIRED { 2 * h } else { h };
-        let mut xa = [_mm256_setzero_pd(); W];
-        let mut xb = [_mm256_setzero_pd(); W];
-        for (p, &a1) in e1.iter().enumerate() {
-            let s1 = _mm256_set1_pd(a1);
-            let col = basis.as_ptr().add(stride * p + r0);
-            if !PAIRED {
-                for (i, xa) in xa.iter_mut().enumerate() {
-                    *xa = _mm256_fmadd_pd(_mm256_loadu_pd(col.add(4 * i)), s1, *xa);
-                }
-                continue;
-            }
-            let s2 = _mm256_set1_pd(*e2.get_unchecked(p));
-            for i in 0..W {
-                let va = _mm256_loadu_pd(col.add(4 * i));
-                let vb = _mm256_loadu_pd(col.add(h + 4 * i));
-                xa[i] = _mm256_fnmadd_pd(vb, s2, _mm256_fmadd_pd(va, s1, xa[i]));
-                xb[i] = _mm256_fmadd_pd(va, s2, _mm256_fmadd_pd(vb, s1, xb[i]));
-            }
-        }
-        for i in 0..W {
-            _mm256_storeu_pd(x.as_mut_ptr().add(r0 + 4 * i), xa[i]);
-            if PAIRED {
-                _mm256_storeu_pd(x.as_mut_ptr().add(h + r0 + 4 * i), xb[i]);
-            }
-        }
+        simd::project::<true>(isa, basis, b.rows / 2, x, &mut g[..2 * b.n]);
     }
 }
 
@@ -964,299 +761,6 @@ fn sector_dft_weights(ns: usize, blocks: &[Block]) -> Vec<(f64, f64)> {
         }
     }
     w
-}
-
-/// Rows `r0..r0 + 4W` of one harmonic of [`ModalKernel::direct_force_rows_avx2`]:
-/// `x_a = Σ_j c_j f_j`, `x_b = Σ_j s_j f_j` over the `loaded` sectors `s_j`, with
-/// `(c_j, s_j)` at `weights[s_j·nh]` and `f_j` the rows of load j in `fload` (stride `nbp`).
-///
-/// # Safety
-/// The CPU has AVX2 and FMA; `r0 + 4W ≤ nbp ≤ xa.len(), xb.len()`,
-/// `fload.len() ≥ loaded.len()·nbp`, `s·nh < weights.len()` for every `s` in `loaded`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn dft_band<const W: usize>(
-    weights: &[(f64, f64)],
-    nh: usize,
-    loaded: &[usize],
-    fload: &[f64],
-    nbp: usize,
-    r0: usize,
-    xa: &mut [f64],
-    xb: &mut [f64],
-) {
-    use std::arch::x86_64::{
-        _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-    };
-    // SAFETY: the caller guarantees the bounds.
-    unsafe {
-        let mut sa = [_mm256_setzero_pd(); W];
-        let mut sb = [_mm256_setzero_pd(); W];
-        for (j, &s) in loaded.iter().enumerate() {
-            let &(c, s) = weights.get_unchecked(s * nh);
-            let (c, s) = (_mm256_set1_pd(c), _mm256_set1_pd(s));
-            let f = fload.as_ptr().add(j * nbp + r0);
-            for i in 0..W {
-                let v = _mm256_loadu_pd(f.add(4 * i));
-                sa[i] = _mm256_fmadd_pd(c, v, sa[i]);
-                sb[i] = _mm256_fmadd_pd(s, v, sb[i]);
-            }
-        }
-        for i in 0..W {
-            _mm256_storeu_pd(xa.as_mut_ptr().add(r0 + 4 * i), sa[i]);
-            _mm256_storeu_pd(xb.as_mut_ptr().add(r0 + 4 * i), sb[i]);
-        }
-    }
-}
-
-/// Rows `r0..r0 + 4W` of one sector of [`ModalKernel::folded_rows_to_boundary_avx2`]:
-/// `e = Σ_k c_k a_k` and `o = Σ_k s_k b_k` over the harmonics `k = k0, k0 + step, …`, with
-/// `(c_k, s_k)` in `weights` and the rows `[a_k; b_k]` of harmonic k at `2k·nbp` in `rows`.
-///
-/// # Safety
-/// The CPU has AVX2 and FMA; `r0 + 4W ≤ nbp ≤ e.len(), o.len()`,
-/// `rows.len() ≥ 2·nbp·weights.len()`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn fold_band<const W: usize>(
-    weights: &[(f64, f64)],
-    rows: &[f64],
-    nbp: usize,
-    r0: usize,
-    k0: usize,
-    step: usize,
-    e: &mut [f64],
-    o: &mut [f64],
-) {
-    use std::arch::x86_64::{
-        _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
-    };
-    // SAFETY: the caller guarantees the bounds.
-    unsafe {
-        let mut se = [_mm256_setzero_pd(); W];
-        let mut so = [_mm256_setzero_pd(); W];
-        let mut a = rows.as_ptr().add(2 * k0 * nbp + r0);
-        for &(c, s) in weights[k0..].iter().step_by(step) {
-            let (c, s) = (_mm256_set1_pd(c), _mm256_set1_pd(s));
-            for i in 0..W {
-                se[i] = _mm256_fmadd_pd(c, _mm256_loadu_pd(a.add(4 * i)), se[i]);
-                so[i] = _mm256_fmadd_pd(s, _mm256_loadu_pd(a.add(nbp + 4 * i)), so[i]);
-            }
-            a = a.wrapping_add(2 * step * nbp);
-        }
-        for i in 0..W {
-            _mm256_storeu_pd(e.as_mut_ptr().add(r0 + 4 * i), se[i]);
-            _mm256_storeu_pd(o.as_mut_ptr().add(r0 + 4 * i), so[i]);
-        }
-    }
-}
-
-/// The sectors of one folded sum of [`ModalKernel::folded_rows_to_boundary_avx2`] from its
-/// partial sums `[E₊, O₊, E₋, O₋]` (`nbp` rows each): `u_{N−s} = E − O`, `u_s = E + O` with
-/// `E = E₊ + E₋`, `O = O₊ + O₋`, and with `half = Some(N/2)` (N even) first
-/// `u_{N/2−s} = E' − O'`, `u_{N/2+s} = E' + O'` with `E' = E₊ − E₋`, `O' = O₊ − O₋` (N odd:
-/// `E₋ = O₋ = 0`, not read). Where sectors coincide (s = 0, s = N/4) the last write wins.
-/// The rows past `nb` are not written.
-///
-/// # Safety
-/// The CPU has AVX2; `target.len() = N·nb`, `s ≤ N/2`, every sum holds `nb` rounded up to
-/// a multiple of 4 rows.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn store_folded(
-    target: &mut [f64],
-    nb: usize,
-    [ep, op, em, om]: [&[f64]; 4],
-    s: usize,
-    half: Option<usize>,
-) {
-    use std::arch::x86_64::{_mm256_add_pd, _mm256_loadu_pd, _mm256_sub_pd};
-    let ns = target.len() / nb;
-    let t = target.as_mut_ptr();
-    // SAFETY: rows v..v + 4 of the sums exist (v < nb ≤ their length, a multiple of 4); each
-    // sector's rows start inside `target` and only its `nb` rows are written.
-    unsafe {
-        for v in (0..nb).step_by(4) {
-            let store = |m: usize, x| store_rows(t.add(m * nb + v), x, nb - v);
-            let (mut e, mut o) = (
-                _mm256_loadu_pd(ep[v..].as_ptr()),
-                _mm256_loadu_pd(op[v..].as_ptr()),
-            );
-            if let Some(half) = half {
-                let (e2, o2) = (
-                    _mm256_loadu_pd(em[v..].as_ptr()),
-                    _mm256_loadu_pd(om[v..].as_ptr()),
-                );
-                let (ed, od) = (_mm256_sub_pd(e, e2), _mm256_sub_pd(o, o2));
-                (e, o) = (_mm256_add_pd(e, e2), _mm256_add_pd(o, o2));
-                store(half - s, _mm256_sub_pd(ed, od));
-                store(half + s, _mm256_add_pd(ed, od));
-            }
-            store((ns - s) % ns, _mm256_sub_pd(e, o));
-            store(s, _mm256_add_pd(e, o));
-        }
-    }
-}
-
-/// Stores the first `min(n, 4)` lanes of `x` at `p` by plain stores of 4, 2 and 1 values
-/// (AMD cores execute masked stores slowly).
-///
-/// # Safety
-/// The CPU has AVX2; `p` is valid for `min(n, 4)` writes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn store_rows(p: *mut f64, x: std::arch::x86_64::__m256d, n: usize) {
-    use std::arch::x86_64::{
-        _mm_store_sd, _mm_storeu_pd, _mm256_castpd256_pd128, _mm256_extractf128_pd,
-        _mm256_storeu_pd,
-    };
-    // SAFETY: the caller guarantees the bounds.
-    unsafe {
-        if n >= 4 {
-            _mm256_storeu_pd(p, x);
-            return;
-        }
-        let (low, high) = (_mm256_castpd256_pd128(x), _mm256_extractf128_pd::<1>(x));
-        match n {
-            3 => {
-                _mm_storeu_pd(p, low);
-                _mm_store_sd(p.add(2), high);
-            }
-            2 => _mm_storeu_pd(p, low),
-            _ => _mm_store_sd(p, low),
-        }
-    }
-}
-
-/// The lane sums of four accumulators as one vector `[Σa, Σb, Σc, Σd]`, each summed as
-/// `(x₀ + x₁) + (x₂ + x₃)`: the reduction of the explicit SIMD dot products.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-pub(crate) fn lane_sums4(
-    a: std::arch::x86_64::__m256d,
-    b: std::arch::x86_64::__m256d,
-    c: std::arch::x86_64::__m256d,
-    d: std::arch::x86_64::__m256d,
-) -> std::arch::x86_64::__m256d {
-    use std::arch::x86_64::{_mm256_add_pd, _mm256_hadd_pd, _mm256_permute2f128_pd};
-    let (ab, cd) = (_mm256_hadd_pd(a, b), _mm256_hadd_pd(c, d));
-    _mm256_add_pd(
-        _mm256_permute2f128_pd::<0x20>(ab, cd),
-        _mm256_permute2f128_pd::<0x31>(ab, cd),
-    )
-}
-
-/// [`project`] in explicit AVX2/FMA code, with the half height `h` (a multiple of 4).
-/// `PAIRED` (a complex harmonic): one pass over its half basis (see [`expand_avx2`]),
-/// `g₁ = V_aᵀ x_a + V_bᵀ x_b`, `g₂ = V_aᵀ x_b − V_bᵀ x_a`. Otherwise (a real harmonic)
-/// `g = Vᵀ x` with `h` rows. In bands of up to 16 rows per part, whose `x` is loaded once
-/// while the columns go by two (the paper's casing and impeller have one band).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn project_avx2<const PAIRED: bool>(basis: &[f64], h: usize, x: &[f64], g: &mut [f64]) {
-    let (parts, n) = if PAIRED {
-        (2, g.len() / 2)
-    } else {
-        (1, g.len())
-    };
-    assert!(basis.len() >= parts * h * n && x.len() >= parts * h && h.is_multiple_of(4));
-    let (g1, g2) = g.split_at_mut(n);
-    let mut r = 0;
-    while r < h {
-        // SAFETY: rows r..r + 4V of each part lie inside every column and `x` (checked above).
-        unsafe { by_width!((h - r) / 4, project_band::<PAIRED>(basis, h, x, g1, g2, r)) }
-        r += 16.min(h - r);
-    }
-}
-
-/// Rows `r0..r0 + 4V` of each part of [`project_avx2`], for all columns (`g2` is written only
-/// if `PAIRED`): the sums are stored by the first band (`r0 = 0`) and added by the others.
-/// `x` of the band is loaded once, not per column; two columns at a time, their four sums
-/// reduced together. (With 16 paired rows that copy of `x` fills 8 of the 16 AVX2 registers,
-/// and the compiler keeps it on the stack and reloads it per column; split accumulators, or
-/// 8-row bands of four columns, measured no faster.)
-///
-/// # Safety
-/// The CPU has AVX2 and FMA; `r0 + 4V ≤ h`, `basis.len() ≥ parts·h·g1.len()`,
-/// `x.len() ≥ parts·h` (`parts` = 2 if `PAIRED`, else 1), `g2.len() = g1.len()` if `PAIRED`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn project_band<const V: usize, const PAIRED: bool>(
-    basis: &[f64],
-    h: usize,
-    x: &[f64],
-    g1: &mut [f64],
-    g2: &mut [f64],
-    r0: usize,
-) {
-    use std::arch::x86_64::{
-        __m256d, _mm_add_pd, _mm_add_sd, _mm_load_sd, _mm_loadu_pd, _mm_store_sd, _mm_storeu_pd,
-        _mm256_castpd256_pd128, _mm256_extractf128_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,
-        _mm256_loadu_pd, _mm256_setzero_pd,
-    };
-    let stride = if PAIRED { 2 * h } else { h };
-    let n = g1.len();
-    // SAFETY: the caller guarantees the bounds (columns p < n of `g1`, `g2`).
-    unsafe {
-        let xp = x.as_ptr().add(r0);
-        let xa: [__m256d; V] = std::array::from_fn(|i| _mm256_loadu_pd(xp.add(4 * i)));
-        let xb: [__m256d; V] = std::array::from_fn(|i| {
-            if PAIRED {
-                _mm256_loadu_pd(xp.add(h + 4 * i))
-            } else {
-                _mm256_setzero_pd()
-            }
-        });
-        // `sums = [g₁ of column p, g₁ of p + 1, g₂ of p, g₂ of p + 1]`: its halves go to
-        // `g₁`, `g₂` (`width` columns), stored by the first band and added by the others.
-        let (g1, g2) = (g1.as_mut_ptr(), g2.as_mut_ptr());
-        let put = |p: usize, sums: __m256d, width: usize| {
-            let halves = [
-                _mm256_castpd256_pd128(sums),
-                _mm256_extractf128_pd::<1>(sums),
-            ];
-            for (g, half) in [g1, g2]
-                .into_iter()
-                .zip(halves)
-                .take(if PAIRED { 2 } else { 1 })
-            {
-                let dst = g.add(p);
-                match (width, r0) {
-                    (2, 0) => _mm_storeu_pd(dst, half),
-                    (2, _) => _mm_storeu_pd(dst, _mm_add_pd(half, _mm_loadu_pd(dst))),
-                    (_, 0) => _mm_store_sd(dst, half),
-                    _ => _mm_store_sd(dst, _mm_add_sd(half, _mm_load_sd(dst))),
-                }
-            }
-        };
-        let column = |p: usize| -> (__m256d, __m256d) {
-            let col = basis.as_ptr().add(stride * p + r0);
-            let (mut a1, mut a2) = (_mm256_setzero_pd(), _mm256_setzero_pd());
-            for i in 0..V {
-                let va = _mm256_loadu_pd(col.add(4 * i));
-                a1 = _mm256_fmadd_pd(va, xa[i], a1);
-                if PAIRED {
-                    let vb = _mm256_loadu_pd(col.add(h + 4 * i));
-                    a1 = _mm256_fmadd_pd(vb, xb[i], a1);
-                    a2 = _mm256_fnmadd_pd(vb, xa[i], _mm256_fmadd_pd(va, xb[i], a2));
-                }
-            }
-            (a1, a2)
-        };
-        let mut p = 0;
-        while p + 2 <= n {
-            let ((a, c), (b, d)) = (column(p), column(p + 1));
-            put(p, lane_sums4(a, b, c, d), 2);
-            p += 2;
-        }
-        if p < n {
-            let (a, c) = column(p);
-            let z = _mm256_setzero_pd();
-            put(p, lane_sums4(a, z, c, z), 1);
-        }
-    }
 }
 
 /// `Ĥ_k = Σ_m H(m) e^{−ikmα}`, k = 0..=N/2: the spline map from the contact-node
@@ -1533,168 +1037,10 @@ impl StructureKernel for ModalKernel {
     }
 }
 
-/// `y += A x` for a column-major `A` with `rows` rows (`x.len()` columns): four columns at a
-/// time so that each pass over `y` does four products per element. The portable path of
-/// [`expand`] (the AVX2 one is `expand_avx2`).
-pub fn gemv(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    let y = &mut y[..rows];
-    let cols = x.len();
-    let a = &a[..rows * cols];
-    let mut p = 0;
-    while p + 4 <= cols {
-        let (x0, x1, x2, x3) = (x[p], x[p + 1], x[p + 2], x[p + 3]);
-        let c = &a[p * rows..(p + 4) * rows];
-        let (c0, rest) = c.split_at(rows);
-        let (c1, rest) = rest.split_at(rows);
-        let (c2, c3) = rest.split_at(rows);
-        for r in 0..rows {
-            y[r] += (x0 * c0[r] + x1 * c1[r]) + (x2 * c2[r] + x3 * c3[r]);
-        }
-        p += 4;
-    }
-    while p < cols {
-        let xp = x[p];
-        let c = &a[p * rows..(p + 1) * rows];
-        for r in 0..rows {
-            y[r] += xp * c[r];
-        }
-        p += 1;
-    }
-}
-
-#[inline(always)]
-fn dot_lanes(c: &[f64], x: &[f64]) -> f64 {
-    let n = x.len();
-    let c = &c[..n];
-    let mut acc = [0.0f64; 4];
-    let mut r = 0;
-    while r + 4 <= n {
-        for l in 0..4 {
-            acc[l] += c[r + l] * x[r + l];
-        }
-        r += 4;
-    }
-    let mut tail = 0.0;
-    while r < n {
-        tail += c[r] * x[r];
-        r += 1;
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
-}
-
-/// `y = Aᵀ x` for a column-major `A` with `rows` rows (`y.len()` columns): four columns at a
-/// time with four lane accumulators each. The portable path of [`project`] (the AVX2 one is
-/// `project_avx2`).
-pub fn gemv_t(a: &[f64], rows: usize, x: &[f64], y: &mut [f64]) {
-    let x = &x[..rows];
-    let cols = y.len();
-    let a = &a[..rows * cols];
-    let body = rows - rows % 4;
-    let mut p = 0;
-    // Four columns at a time: four independent lane accumulators hide the FMA latency that a
-    // single dot product would serialise on.
-    while p + 4 <= cols {
-        let c = &a[p * rows..(p + 4) * rows];
-        let (c0, rest) = c.split_at(rows);
-        let (c1, rest) = rest.split_at(rows);
-        let (c2, c3) = rest.split_at(rows);
-        let mut acc = [[0.0f64; 4]; 4];
-        let mut r = 0;
-        while r < body {
-            for l in 0..4 {
-                let xv = x[r + l];
-                acc[0][l] += c0[r + l] * xv;
-                acc[1][l] += c1[r + l] * xv;
-                acc[2][l] += c2[r + l] * xv;
-                acc[3][l] += c3[r + l] * xv;
-            }
-            r += 4;
-        }
-        let mut tail = [0.0f64; 4];
-        for r in body..rows {
-            tail[0] += c0[r] * x[r];
-            tail[1] += c1[r] * x[r];
-            tail[2] += c2[r] * x[r];
-            tail[3] += c3[r] * x[r];
-        }
-        for j in 0..4 {
-            let v = acc[j];
-            y[p + j] = (v[0] + v[1]) + (v[2] + v[3]) + tail[j];
-        }
-        p += 4;
-    }
-    while p < cols {
-        y[p] = dot_lanes(&a[p * rows..(p + 1) * rows], x);
-        p += 1;
-    }
-}
-
 #[cfg(test)]
-mod gemv_tests {
+mod tests {
     use super::*;
 
-    /// The one-pass J-pair kernels equal the naive `[V, JV] η` and `[V, JV]ᵀ x`, and the
-    /// real-harmonic ones `V η` and `Vᵀ x`, for heights that fill whole 16-row bands and
-    /// leave partial ones.
-    #[cfg(target_arch = "x86_64")]
-    #[test]
-    fn paired_kernels_match_the_naive_products() {
-        if !has_avx2_fma() {
-            return;
-        }
-        let mut rng = crate::dynamics::synthetic::Lcg(11);
-        for (h, n) in [(4, 3), (12, 7), (16, 25), (20, 6), (36, 5)] {
-            let v: Vec<f64> = (0..2 * h * n).map(|_| rng.next()).collect();
-            let eta: Vec<f64> = (0..2 * n).map(|_| rng.next()).collect();
-            let x: Vec<f64> = (0..2 * h).map(|_| rng.next()).collect();
-            // Column p of [V, JV]: V's column, or J of it ([a; b] ↦ [−b; a]).
-            let col = |p: usize, r: usize| {
-                let c = &v[(p % n) * 2 * h..(p % n + 1) * 2 * h];
-                match (p < n, r < h) {
-                    (true, _) => c[r],
-                    (false, true) => -c[h + r],
-                    (false, false) => c[r - h],
-                }
-            };
-            let mut got = vec![0.0; 2 * h];
-            // SAFETY: AVX2 and FMA checked above.
-            unsafe { expand_avx2::<true>(&v, h, &eta, &mut got) };
-            for (r, got_r) in got.iter().enumerate() {
-                let want: f64 = (0..2 * n).map(|p| col(p, r) * eta[p]).sum();
-                assert!((got_r - want).abs() < 1e-13, "expand h={h} n={n} row {r}");
-            }
-            let mut g = vec![0.0; 2 * n];
-            // SAFETY: as above.
-            unsafe { project_avx2::<true>(&v, h, &x, &mut g) };
-            for (p, g_p) in g.iter().enumerate() {
-                let want: f64 = (0..2 * h).map(|r| col(p, r) * x[r]).sum();
-                assert!((g_p - want).abs() < 1e-13, "project h={h} n={n} column {p}");
-            }
-            // A real harmonic: the first h·n entries as n columns of h rows.
-            let real = |p: usize, r: usize| v[p * h + r];
-            // SAFETY: as above.
-            unsafe { expand_avx2::<false>(&v, h, &eta[..n], &mut got[..h]) };
-            for (r, got_r) in got[..h].iter().enumerate() {
-                let want: f64 = (0..n).map(|p| real(p, r) * eta[p]).sum();
-                assert!(
-                    (got_r - want).abs() < 1e-13,
-                    "real expand h={h} n={n} row {r}"
-                );
-            }
-            // SAFETY: as above.
-            unsafe { project_avx2::<false>(&v, h, &x[..h], &mut g[..n]) };
-            for (p, g_p) in g[..n].iter().enumerate() {
-                let want: f64 = (0..h).map(|r| real(p, r) * x[r]).sum();
-                assert!(
-                    (g_p - want).abs() < 1e-13,
-                    "real project h={h} n={n} column {p}"
-                );
-            }
-        }
-    }
-
-    /// `correct_then_predict` + `predict` gives exactly the state and channels of `correct` +
-    /// `predict` (the same arithmetic in the same order), and the fused predictor is used.
     /// The harmonic rows of a load equal the naive real DFT `a_k = w Σ_s cos(kθ_s) f_s`,
     /// `b_k = w Σ_s sin(kθ_s) f_s`, for a load on three sectors (direct sums) and on every
     /// sector (FFTs).
@@ -1783,6 +1129,8 @@ mod gemv_tests {
         }
     }
 
+    /// `correct_then_predict` + `predict` gives exactly the state and channels of `correct` +
+    /// `predict` (the same arithmetic in the same order), and the fused predictor is used.
     #[test]
     fn fused_correction_and_prediction_equal_the_separate_calls() {
         use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
@@ -1876,6 +1224,63 @@ mod gemv_tests {
         assert!(worst <= 1e-12 * scale, "{worst:e} vs {scale:e}");
     }
 
+    /// A kernel built on the portable path ([`simd::force`]) follows one built on the best
+    /// path through loaded, rubbing steps (direct sector DFTs, folded synthesis, fused
+    /// predictor): equal to round-off (the portable path may not fuse its multiply-adds).
+    #[test]
+    fn the_portable_kernel_follows_the_explicit_one() {
+        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let best = Isa::best();
+        if best.is_portable() {
+            eprintln!("no explicit SIMD path on this CPU: portable kernel not compared");
+            return;
+        }
+        let (ns, nc) = (20, 3);
+        let nb = 3 * nc;
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, nc, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let h = 0.3 * st.stability_limit();
+        let mut explicit = {
+            let _best = simd::force(best);
+            ModalKernel::new(&st, h).unwrap()
+        };
+        let mut portable = {
+            let _portable = simd::force(Isa::PORTABLE);
+            ModalKernel::new(&st, h).unwrap()
+        };
+        assert_eq!((explicit.isa(), portable.isa()), (best, Isa::PORTABLE));
+        let pattern: Vec<f64> = (0..ns * nb)
+            .map(|i| ((i * 7 % 11) as f64 - 5.0) * 1e3)
+            .collect();
+        explicit.set_load_pattern(&pattern);
+        portable.set_load_pattern(&pattern);
+        let (mut scale, mut worst) = (0.0f64, 0.0f64);
+        for step in 0..100 {
+            let amp = (step as f64 * 0.1).sin();
+            let next = ((step + 1) as f64 * 0.1).sin();
+            // A load on three sectors, moving round.
+            let mut f = vec![0.0; ns * nb];
+            for s in [step % ns, (step + 1) % ns, (step + 7) % ns] {
+                for r in 0..nb {
+                    f[s * nb + r] = ((r + step) % 5) as f64 * 10.0 - 20.0;
+                }
+            }
+            for k in [&mut explicit, &mut portable] {
+                k.predict(amp);
+                k.correct_then_predict(&f, next);
+            }
+            for (a, b) in portable.boundary().iter().zip(explicit.boundary()) {
+                scale = scale.max(b.abs());
+                worst = worst.max((a - b).abs());
+            }
+            explicit.advance();
+            portable.advance();
+        }
+        assert!(scale > 0.0);
+        assert!(worst <= 1e-12 * scale, "{worst:e} vs {scale:e}");
+    }
+
     /// The re-paired basis of every complex harmonic is an M-orthonormal eigenbasis of
     /// `(K(Ω), M)` whose second half is `J` times the first (checked against the matrices, not
     /// against the construction).
@@ -1926,38 +1331,5 @@ mod gemv_tests {
             checked += 1;
         }
         assert!(checked > 0);
-    }
-
-    /// Both GEMVs against the plain triple loop, for sizes with and without remainders.
-    #[test]
-    fn gemv_and_transpose_match_the_naive_products() {
-        for (rows, cols) in [
-            (1, 1),
-            (3, 5),
-            (15, 25),
-            (30, 50),
-            (7, 9),
-            (32, 25),
-            (36, 6),
-            (16, 3),
-        ] {
-            let a: Vec<f64> = (0..rows * cols)
-                .map(|i| ((i * 37 % 101) as f64 - 50.0) / 7.0)
-                .collect();
-            let x: Vec<f64> = (0..cols).map(|i| (i as f64 * 0.3).sin()).collect();
-            let z: Vec<f64> = (0..rows).map(|i| (i as f64 * 0.7).cos()).collect();
-            let mut y = vec![1.0; rows];
-            gemv(&a, rows, &x, &mut y);
-            let mut g = vec![0.0; cols];
-            gemv_t(&a, rows, &z, &mut g);
-            for r in 0..rows {
-                let e: f64 = 1.0 + (0..cols).map(|p| a[p * rows + r] * x[p]).sum::<f64>();
-                assert!((y[r] - e).abs() <= 1e-13 * e.abs().max(1.0));
-            }
-            for p in 0..cols {
-                let e: f64 = (0..rows).map(|r| a[p * rows + r] * z[r]).sum();
-                assert!((g[p] - e).abs() <= 1e-13 * e.abs().max(1.0));
-            }
-        }
     }
 }
