@@ -30,7 +30,8 @@ pub struct SimulationOutput {
     pub min_gap: Vec<f64>,
     /// Largest residual penetration after correction (m, ≥ 0) at the sample step:
     /// re-projection of the corrected blade nodes on the corrected spline. Only sample steps
-    /// refresh the corrected casing channels in the fast kernel, so only they are checked.
+    /// synthesise the corrected casing surface (aside: the state never reads it), so only
+    /// they are checked.
     pub residual_penetration: Vec<f64>,
     /// Impeller and casing energies (J, half-step form).
     pub impeller_energy: EnergySeries,
