@@ -430,27 +430,37 @@ impl GapBounds {
         eps_nr: f64,
         mut min_gap: f64,
     ) -> Result<f64, NodeProjectionError> {
-        let n = spline.n_sectors() as f64;
         self.far.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         for &(bound, node) in &self.far {
             if bound >= min_gap {
                 break;
             }
             let x = &xs[node];
-            let consecutive = self.last_call[node] + 1 == self.calls;
-            let mut start = warm[node].map(|p| {
-                let (du, dv) = self.step_guess(node, x, consecutive);
-                to_param(
-                    spline,
-                    (p.i as f64 + p.u + du).rem_euclid(n),
-                    p.j as f64 + p.v + dv,
-                )
-            });
+            let mut start = warm[node].map(|p| self.extrapolated(spline, node, x, p));
             let mut out = Projection::default();
             project_node(spline, q, node, x, &mut start, eps_nr, &mut out)?;
             min_gap = min_gap.min(out.gap);
         }
         Ok(min_gap)
+    }
+
+    /// The warm start of node `node`, now at `x`, extrapolated from its last closest point `p`
+    /// by [`GapBounds::step_guess`].
+    fn extrapolated(
+        &self,
+        spline: &CasingSpline,
+        node: usize,
+        x: &Vector3<f64>,
+        p: SurfaceParam,
+    ) -> SurfaceParam {
+        let n = spline.n_sectors() as f64;
+        let consecutive = self.last_call[node] + 1 == self.calls;
+        let (du, dv) = self.step_guess(node, x, consecutive);
+        to_param(
+            spline,
+            (p.i as f64 + p.u + du).rem_euclid(n),
+            p.j as f64 + p.v + dv,
+        )
     }
 
     /// Projects node `node` at `x` from its extrapolated warm start and records its bound.
@@ -468,9 +478,8 @@ impl GapBounds {
         let n = spline.n_sectors() as f64;
         let start = warm[node].map(|p| (p.i as f64 + p.u, p.j as f64 + p.v));
         let consecutive = self.last_call[node] + 1 == self.calls;
-        if let Some((gu, gv)) = start {
-            let (du, dv) = self.step_guess(node, x, consecutive);
-            warm[node] = Some(to_param(spline, (gu + du).rem_euclid(n), gv + dv));
+        if let Some(p) = warm[node] {
+            warm[node] = Some(self.extrapolated(spline, node, x, p));
         }
         project_node(spline, q, node, x, &mut warm[node], eps_nr, &mut out[node])?;
         let p = out[node].param;

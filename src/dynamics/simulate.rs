@@ -672,11 +672,6 @@ impl<'a> Simulation<'a> {
         })
     }
 
-    /// Number of steps of the case, `round(duration / h)`.
-    pub fn n_steps(&self) -> usize {
-        self.summary.n_steps
-    }
-
     /// Runs every step, polling `cancel` every 1024 steps; hands each sample to `recorder`.
     pub fn run(
         mut self,
@@ -982,7 +977,6 @@ impl<'a> Simulation<'a> {
         };
         let lazy = matches!(f.kernel, Kernel::Modal { .. });
         c.fc.iter_mut().for_each(|x| *x = 0.0);
-        c.loads.clear();
         for (cd, l) in c.cands.iter().zip(&c.lambda) {
             if *l != 0.0 {
                 let force = cd.fdir * (-l);
@@ -993,7 +987,9 @@ impl<'a> Simulation<'a> {
                     (&mut c.wu, &mut c.wv),
                     &mut c.fc,
                 )?;
-                c.loads.push((cd.param, force));
+                if lazy {
+                    c.loads.push((cd.param, force));
+                }
             }
         }
         f.frames.finish_forces(&mut c.fc);
@@ -1027,9 +1023,6 @@ impl<'a> Simulation<'a> {
                 }
             }
             c.touched[cd.node] = Some((cd.param, x));
-        }
-        if !lazy {
-            c.loads.clear();
         }
         Ok(())
     }
