@@ -6,9 +6,11 @@
 //! Ω = 3000 rad/s). Needs in Cargo.toml:
 //! `[[bench]] name = "time_step" harness = false`.
 
+mod common;
+
+use common::{bench_default_models, bench_paper_scale};
 use criterion::{Criterion, criterion_group, criterion_main};
 use rubscan::dynamics::KernelChoice;
-use rubscan::dynamics::bench::{bench_default_models, bench_paper_scale};
 
 fn time_step(c: &mut Criterion) {
     faer::set_global_parallelism(faer::Par::Seq);

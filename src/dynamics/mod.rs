@@ -10,10 +10,10 @@
 //! - [`simulate`]: the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
 //!   [`recorder`]: what a sample step hands out and who keeps it; [`probes`]: the run's output;
 //! - [`abradable`]: the abradable coating's elastoplastic elements;
-//! - [`synthetic`]: synthetic ROMs (test and benchmark fixture); [`bench`]: time-step benchmark.
+//! - `synthetic`: synthetic ROMs, a test and benchmark fixture compiled only for tests and with
+//!   the `fixtures` feature.
 
 pub mod abradable;
-pub mod bench;
 pub mod contact_solve;
 pub mod dense;
 pub mod kernel;
@@ -24,6 +24,7 @@ pub mod recorder;
 pub mod scenario;
 pub mod simulate;
 pub mod structure;
+#[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
 
 pub use numerics::{KernelChoice, Numerics};

@@ -1073,36 +1073,3 @@ mod exactness_tests {
         }
     }
 }
-
-#[cfg(test)]
-mod timing {
-    use super::*;
-    use crate::model::cyclic::test_support::truss_sector_dims;
-    use std::time::Instant;
-
-    /// Timing of a casing-sized reduction (N = 100, ~1800 sector DOFs, 10 modes per nodal
-    /// diameter) on the lattice test sector: `cargo test --lib timing -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn time_casing_sized_reduction() {
-        for (n_sec, dims) in [(100, [5, 3, 41]), (10, [5, 7, 41])] {
-            let s = truss_sector_dims(n_sec, true, dims);
-            let model = SectorModel {
-                topology: s.topology(),
-                nodes: &s.nodes,
-                contact_nodes: &s.contact,
-                stiffness: &s.k,
-                mass: &s.m,
-                centrifugal: Some(&s.k1),
-            };
-            let t = Instant::now();
-            let rom = reduce_sector_model(&model, &ReductionOptions::default()).unwrap();
-            println!(
-                "N = {n_sec}, {} sector DOFs: reduced {} harmonics in {:.2} s",
-                3 * s.nodes.len(),
-                rom.harmonics.len(),
-                t.elapsed().as_secs_f64()
-            );
-        }
-    }
-}

@@ -6,8 +6,8 @@
 //! under `<out>/jobs/<id>.json`) → `<out>/results.parquet` + `<out>/manifest.json`;
 //! shard outputs combine with [`runner::merge`].
 //!
-//! The simulation itself is behind the [`JobSimulator`] trait; [`synthetic::SyntheticSimulator`]
-//! is a deterministic analytic stand-in used by the tests.
+//! The simulation itself is behind the [`JobSimulator`] trait; `synthetic::SyntheticSimulator`
+//! (with the `fixtures` feature) is a deterministic analytic stand-in used by the tests.
 
 pub mod aggregate;
 pub mod checkpoint;
@@ -15,6 +15,7 @@ pub mod planner;
 pub mod runner;
 pub mod simulator;
 pub mod spec;
+#[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
 pub mod validate;
 

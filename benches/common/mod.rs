@@ -1,15 +1,17 @@
-//! Per-step timing of the simulation at a given model size (called by `benches/time_step.rs`
-//! and usable from the CLI): wall-clock µs per time step, single thread.
+//! Per-step timing of the simulation at a given model size, shared by the benches
+//! (`time_step`, `stage_breakdown`): wall-clock µs per time step, single thread.
+#![allow(dead_code)] // each bench target uses part of this module
 
-use crate::dynamics::numerics::{KernelChoice, Numerics};
-use crate::dynamics::probes::StageSeconds;
-use crate::dynamics::scenario::{Case, CasingModel, InitialVelocity, LobeLoad};
-use crate::dynamics::simulate::{SimError, simulate};
-use crate::dynamics::structure::Structure;
-use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
-use crate::model::rom::CyclicRom;
+use rubscan::dynamics::numerics::{KernelChoice, Numerics};
+use rubscan::dynamics::probes::StageSeconds;
+use rubscan::dynamics::scenario::{Case, CasingModel, InitialVelocity, LobeLoad};
+use rubscan::dynamics::simulate::{SimError, simulate};
+use rubscan::dynamics::structure::Structure;
+use rubscan::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+use rubscan::model::rom::CyclicRom;
 
 /// Result of [`bench_time_step`].
+/// Timing of one bench run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BenchResult {
     /// Wall-clock time per step (µs), setup excluded.
@@ -19,6 +21,7 @@ pub struct BenchResult {
     /// Fraction of the steps with at least one contact candidate (they run the contact
     /// solve and the correction).
     pub contact_step_fraction: f64,
+    /// Steps run.
     pub n_steps: usize,
     /// The loop time per step split by stage (µs per step).
     pub stage_us: StageSeconds,
@@ -172,9 +175,9 @@ pub fn bench_default_models(
     omega: f64,
     steps: usize,
 ) -> anyhow::Result<BenchResult> {
-    use crate::model::build::{CasingSpec, ImpellerSpec};
-    let imp = crate::app::impeller_rom(&ImpellerSpec::default())?;
-    let cas = crate::app::casing_rom(&CasingSpec::default())?;
+    use rubscan::model::build::{CasingSpec, ImpellerSpec};
+    let imp = rubscan::app::impeller_rom(&ImpellerSpec::default())?;
+    let cas = rubscan::app::casing_rom(&CasingSpec::default())?;
     let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap_or(0) + 1;
     let h = bench_step(&imp, &cas, omega)?;
     let load = contact.then(|| LobeLoad {
@@ -192,114 +195,4 @@ pub fn bench_default_models(
         load,
         steps,
     )?)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    #[ignore = "timing; run with --ignored --nocapture"]
-    fn print_paper_scale_timings() {
-        faer::set_global_parallelism(faer::Par::Seq);
-        let li = Structure::new(&synthetic_rom(&SyntheticSpec::paper_impeller()), 1000.0).unwrap();
-        let lc = Structure::new(&synthetic_rom(&SyntheticSpec::paper_casing()), 0.0).unwrap();
-        println!(
-            "limits: impeller {:e} s, casing {:e} s",
-            li.stability_limit(),
-            lc.stability_limit()
-        );
-        for (kernel, steps) in [
-            (KernelChoice::Fast, 20000),
-            (KernelChoice::DenseReference, 100),
-        ] {
-            for contact in [false, true] {
-                let r = bench_paper_scale(kernel, contact, steps).unwrap();
-                println!(
-                    "{kernel:?} contact={contact}: {:.2} µs/step, contact fraction {:.3}",
-                    r.us_per_step, r.contact_fraction
-                );
-            }
-        }
-    }
-
-    #[test]
-    #[ignore = "timing; run with --ignored --nocapture"]
-    fn print_fast_contact_timing() {
-        for (kernel, steps) in [
-            (KernelChoice::Fast, 100),
-            (KernelChoice::DenseReference, 100),
-            (KernelChoice::Fast, 2000),
-        ] {
-            let r = bench_paper_scale(kernel, true, steps).unwrap();
-            println!(
-                "{kernel:?} contact {steps}: {:.2} µs/step, contact fraction {:.3}",
-                r.us_per_step, r.contact_fraction
-            );
-        }
-    }
-
-    #[test]
-    #[ignore = "timing; run with --ignored --nocapture"]
-    fn print_small_timings() {
-        let imp = synthetic_rom(&SyntheticSpec::small(
-            crate::model::rom::Component::Impeller,
-            4,
-            2,
-            2,
-        ));
-        let cas = synthetic_rom(&SyntheticSpec::small(
-            crate::model::rom::Component::Casing,
-            8,
-            3,
-            2,
-        ));
-        for off in [0.0, 1.5e-4] {
-            let r = bench_time_step(&imp, &cas, 1500.0, KernelChoice::Fast, off, 20000).unwrap();
-            println!(
-                "small off={off}: {:.2} µs/step, contact fraction {:.3}",
-                r.us_per_step, r.contact_fraction
-            );
-        }
-    }
-}
-
-#[cfg(test)]
-mod stage_timing {
-    use super::*;
-
-    /// One timed run with the stage breakdown. Knobs (environment): `BENCH_CONTACT` (any value:
-    /// rubbing; see [`bench_default_models`] and [`bench_paper_scale`]), `BENCH_DENSE` (reference kernel), `BENCH_BUILTIN` (built-in
-    /// models at Ω = 3000 rad/s instead of the synthetic ones), `BENCH_STEPS` (default 30000).
-    #[test]
-    #[ignore = "timing; run with --ignored --nocapture"]
-    fn print_stage_breakdown() {
-        faer::set_global_parallelism(faer::Par::Seq);
-        let on = |k: &str| std::env::var(k).is_ok();
-        let steps = std::env::var("BENCH_STEPS")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(30000);
-        let kernel = if on("BENCH_DENSE") {
-            KernelChoice::DenseReference
-        } else {
-            KernelChoice::Fast
-        };
-        let contact = on("BENCH_CONTACT");
-        let r = if on("BENCH_BUILTIN") {
-            bench_default_models(kernel, contact, 3000.0, steps).unwrap()
-        } else {
-            bench_paper_scale(kernel, contact, steps).unwrap()
-        };
-        println!(
-            "{kernel:?} contact={contact}: {:.2} µs/step, contact fraction {:.3} of the tip nodes, \
-             {:.3} of the steps, h = {:.3e} s, {:.0} steps/rev\n{:?}",
-            r.us_per_step,
-            r.contact_fraction,
-            r.contact_step_fraction,
-            r.time_step,
-            r.steps_per_revolution,
-            r.stage_us
-        );
-    }
 }
