@@ -15,10 +15,10 @@ use anyhow::{Context, Result, anyhow};
 use crate::dynamics::{SimError, Simulation};
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
-use crate::io::plots::{
+use crate::io::timeseries::TimeSeriesWriter;
+use crate::sweep::plots::{
     CampbellData, CasingMode, ImpellerBranch, campbell_diagram, write_sweep_plots,
 };
-use crate::io::timeseries::TimeSeriesWriter;
 use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::spec::CasingSource;
 use crate::sweep::{

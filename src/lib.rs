@@ -5,11 +5,12 @@
 //! - [`contact`]: the casing B-spline contact surface and closest-point projection;
 //! - [`dynamics`]: explicit time integration with Lagrange-multiplier contact, friction, abradable coating;
 //! - [`analysis`]: spectra, linear interaction criterion, strain energy per nodal diameter;
-//! - [`sweep`]: sweep specification, planner, runner;
+//! - [`sweep`]: sweep specification and its schema, validation, planner, runner with its output
+//!   directory (job records, the Parquet results table, plots, manifest);
 //! - [`simd`]: the explicit SIMD kernels (AVX2/FMA) with their portable twins, and the choice
 //!   between them (made once; `RUBSCAN_SIMD=portable` forces the portable path);
-//! - [`io`]: ROM files and cache, FE model readers, Parquet tables, plots (the only modules that
-//!   touch the file system);
+//! - [`io`]: files: atomic writes, content hashes, ROM files and cache, FE model readers, the
+//!   time-series writer (the numerics stages above never touch the file system);
 //! - [`app`]: each `rubscan` subcommand as a library call (the binary only parses arguments).
 //!
 //! Units are SI everywhere inside (m, kg, s, N, Pa, rad/s).

@@ -21,11 +21,11 @@ use rubscan::dynamics::structure::generalized_eigen;
 use rubscan::io::calculix::{
     CalculixImportSpec, ContactSelection, Units, import_calculix, read_calculix_mesh,
 };
-use rubscan::io::parquet::read_results;
 use rubscan::io::rom_file;
 use rubscan::model::rom::CyclicRom;
 use rubscan::sweep::simulator::ModelSimulator;
 use rubscan::sweep::spec::ModelSource;
+use rubscan::sweep::table::read_results;
 use rubscan::sweep::{RunOptions, load_spec, run_sweep};
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -1,7 +1,7 @@
 //! Plots from a synthetic sweep's records. Set RUBSCAN_KEEP_PLOTS=1 to keep the files
 //! (their directory is printed).
 
-use rubscan::io::plots::{
+use rubscan::sweep::plots::{
     interaction_data_from_records, interaction_map, wear_data_from_records, wear_map,
 };
 use rubscan::sweep::synthetic::SyntheticSimulator;
@@ -43,7 +43,7 @@ fn interaction_and_wear_maps_from_a_synthetic_sweep() {
 
 #[test]
 fn standard_plots_one_interaction_map_per_slice() {
-    use rubscan::io::plots::write_sweep_plots;
+    use rubscan::sweep::plots::write_sweep_plots;
     let spec = parse_spec(
         &serde_json::json!({
             "name": "plots2",

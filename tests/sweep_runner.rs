@@ -12,8 +12,8 @@ use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, UInt64Type};
 use arrow_array::{Array, RecordBatch};
 use arrow_schema::DataType;
-use rubscan::io::parquet::{COLUMNS, read_results};
 use rubscan::sweep::synthetic::SyntheticSimulator;
+use rubscan::sweep::table::{COLUMNS, read_results};
 use rubscan::sweep::{
     Job, JobResult, JobSimulator, RunOptions, SweepSpec, merge, parse_spec, plan, run_sweep,
 };

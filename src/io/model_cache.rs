@@ -5,10 +5,10 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
+use crate::io::content_hash::content_hash;
 use crate::io::rom_file;
 use crate::model::build::{BuildError, CasingSpec, ImpellerSpec, build_casing, build_impeller};
 use crate::model::rom::{CyclicRom, ROM_FORMAT_VERSION};
-use crate::sweep::planner::{canonical_json, fnv1a64};
 
 /// Directory of the ROM cache: `$RUBSCAN_CACHE_DIR`, else `$XDG_CACHE_HOME/rubscan`, else
 /// `$HOME/.cache/rubscan`, else `.rubscan-cache`.
@@ -33,8 +33,7 @@ pub fn cached_rom<S: serde::Serialize>(
     build: impl FnOnce(&S) -> Result<CyclicRom, BuildError>,
 ) -> Result<(CyclicRom, bool)> {
     let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION });
-    let hash = fnv1a64(canonical_json(&key).as_bytes());
-    let path = cache_dir().join(format!("{kind}-{hash:016x}.rom"));
+    let path = cache_dir().join(format!("{kind}-{}.rom", content_hash(&key)));
     // A missing or unreadable cache entry is rebuilt.
     if let Ok(rom) = rom_file::load(&path) {
         return Ok((rom, true));

@@ -12,11 +12,14 @@
 pub mod aggregate;
 pub mod checkpoint;
 pub mod planner;
+pub mod plots;
 pub mod runner;
+pub mod schema;
 pub mod simulator;
 pub mod spec;
 #[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
+pub mod table;
 pub mod validate;
 
 use std::sync::atomic::AtomicBool;

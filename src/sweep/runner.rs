@@ -18,10 +18,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::checkpoint::{JobRecord, read_record, write_json_atomic, write_record};
-use super::planner::{Job, Plan, canonical_json, plan};
+use super::planner::{Job, Plan, plan};
 use super::spec::SweepSpec;
+use super::table::write_results;
 use super::{JobSimulator, checkpoint};
-use crate::io::parquet::write_results;
+use crate::io::content_hash::canonical_json;
 
 /// Options of [`run_sweep`].
 #[derive(Debug, Clone)]

@@ -12,7 +12,6 @@
 
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use serde::{Deserialize, Deserializer, Serialize};
 use serde_json::Value;
@@ -20,6 +19,7 @@ use serde_json::Value;
 use crate::dynamics::abradable::CoatingMaterial;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
 use crate::model::build::{CasingSpec, ImpellerSpec};
+pub use crate::sweep::schema::{SWEEP_SCHEMA, SpecError, SpecIssue, validate_against_schema};
 
 /// JSON Schema's `integer` accepts `2.0`; accept it here too so that a schema-valid spec
 /// never fails in serde (whose errors carry no JSON path).
@@ -44,73 +44,6 @@ fn de_opt_u32<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Error> 
         .map(integral_u32)
         .transpose()
         .map_err(serde::de::Error::custom)
-}
-
-/// The JSON Schema of a sweep spec (also shipped as `schemas/sweep.schema.json`).
-pub const SWEEP_SCHEMA: &str = include_str!("../../schemas/sweep.schema.json");
-
-/// One problem found in a spec: JSON pointer of the offending value (`/grid/friction/0`)
-/// and a human-readable reason.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SpecIssue {
-    /// JSON pointer (RFC 6901) into the spec; empty for the document root.
-    pub path: String,
-    /// Why the value is rejected.
-    pub reason: String,
-}
-
-impl fmt::Display for SpecIssue {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let path = if self.path.is_empty() {
-            "/"
-        } else {
-            &self.path
-        };
-        write!(f, "{path}: {}", self.reason)
-    }
-}
-
-/// Why a sweep spec could not be loaded.
-#[derive(Debug, thiserror::Error)]
-pub enum SpecError {
-    /// The spec file could not be read.
-    #[error("cannot read sweep spec {path}: {source}")]
-    Io {
-        /// File that failed.
-        path: PathBuf,
-        /// Underlying error.
-        source: std::io::Error,
-    },
-    /// The text is not JSON.
-    #[error("sweep spec is not valid JSON (line {line}, column {column}): {message}")]
-    Syntax {
-        /// 1-based line.
-        line: usize,
-        /// 1-based column.
-        column: usize,
-        /// Parser message.
-        message: String,
-    },
-    /// The JSON is well-formed but violates the schema or a semantic rule.
-    #[error("sweep spec is invalid:\n{}", .0.iter().map(|i| format!("  {i}")).collect::<Vec<_>>().join("\n"))]
-    Invalid(Vec<SpecIssue>),
-}
-
-impl SpecError {
-    fn one(path: impl Into<String>, reason: impl Into<String>) -> Self {
-        SpecError::Invalid(vec![SpecIssue {
-            path: path.into(),
-            reason: reason.into(),
-        }])
-    }
-
-    /// The individual issues (empty for I/O and syntax errors).
-    pub fn issues(&self) -> &[SpecIssue] {
-        match self {
-            SpecError::Invalid(v) => v,
-            _ => &[],
-        }
-    }
 }
 
 /// A complete sweep specification (see `schemas/sweep.schema.json`).
@@ -433,48 +366,6 @@ impl fmt::Display for AxisName {
             AxisName::CoatingThickness => "coating.thickness",
         };
         f.write_str(s)
-    }
-}
-
-/// The sweep schema as JSON, parsed once. It is a compile-time constant checked by a unit
-/// test, so a failure here is a build defect, not a user error.
-fn schema_value() -> &'static Value {
-    static SCHEMA: OnceLock<Value> = OnceLock::new();
-    SCHEMA.get_or_init(|| {
-        serde_json::from_str(SWEEP_SCHEMA).expect("embedded sweep schema is valid JSON")
-    })
-}
-
-fn schema_validator() -> &'static jsonschema::Validator {
-    static VALIDATOR: OnceLock<jsonschema::Validator> = OnceLock::new();
-    VALIDATOR.get_or_init(|| {
-        jsonschema::draft202012::new(schema_value()).expect("embedded sweep schema compiles")
-    })
-}
-
-/// Checks a JSON value against the sweep schema; returns every violation with its path.
-/// Unknown fields are reported once each, with the closest valid name
-/// ([`super::validate::unknown_fields`]) instead of the schema's generic message.
-pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
-    let mut issues = super::validate::unknown_fields(value, schema_value());
-    issues.extend(
-        schema_validator()
-            .iter_errors(value)
-            .filter(|e| {
-                !matches!(
-                    e.kind(),
-                    jsonschema::error::ValidationErrorKind::AdditionalProperties { .. }
-                )
-            })
-            .map(|e| SpecIssue {
-                path: e.instance_path().as_str().to_string(),
-                reason: e.to_string(),
-            }),
-    );
-    if issues.is_empty() {
-        Ok(())
-    } else {
-        Err(SpecError::Invalid(issues))
     }
 }
 
@@ -1300,7 +1191,7 @@ mod tests {
     /// Property paths of the schema (array items as `*`), following `$ref`s; asserts that
     /// every object with properties is closed.
     fn schema_paths(schema: &Value, root: &Value, path: &str, out: &mut BTreeSet<String>) {
-        let schema = crate::sweep::validate::deref(schema, root);
+        let schema = crate::sweep::schema::deref(schema, root);
         if let Some(props) = schema.get("properties").and_then(Value::as_object) {
             assert_eq!(
                 schema.get("additionalProperties"),

@@ -11,8 +11,6 @@
 //!   ([`Structure::stability_limit`]) of both structures at every grid speed;
 //! - casing probes name contact nodes of the flexible casing.
 
-use serde_json::Value;
-
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::io::{model_cache, rom_file};
 use crate::model::rom::CyclicRom;
@@ -23,86 +21,6 @@ use crate::sweep::spec::{CasingSource, ModelSource, RigidCasing, SpecError, Spec
 /// 10 % margin admits the usual ±10 % bracket around a critical speed near the top of the
 /// table, while a speed far above it (a unit mistake, rpm given as rad/s) is refused.
 pub const SPEED_EXTRAPOLATION: f64 = 0.1;
-
-/// The closest name to `word` among `candidates` (Damerau–Levenshtein distance, so that a
-/// swap of two letters counts one edit, at most a third of the word's length and at least
-/// 1), or `None` when nothing is close.
-pub fn did_you_mean<'a>(
-    word: &str,
-    candidates: impl IntoIterator<Item = &'a str>,
-) -> Option<&'a str> {
-    let limit = (word.chars().count() / 3).max(1);
-    candidates
-        .into_iter()
-        .map(|c| (strsim::damerau_levenshtein(word, c), c))
-        .filter(|&(d, _)| d <= limit)
-        .min_by_key(|&(d, _)| d)
-        .map(|(_, c)| c)
-}
-
-/// Follows a local `$ref` (`#/$defs/name`) of the schema `root`.
-pub(crate) fn deref<'a>(schema: &'a Value, root: &'a Value) -> &'a Value {
-    match schema.get("$ref").and_then(Value::as_str) {
-        Some(r) => r
-            .strip_prefix('#')
-            .and_then(|p| root.pointer(p))
-            .map_or(schema, |s| deref(s, root)),
-        None => schema,
-    }
-}
-
-/// Every field of `value` that the JSON Schema `schema` does not allow (objects with
-/// `additionalProperties: false`), with the closest valid name when one is close:
-/// `/scenario: unknown field `load_amplitud_m`, did you mean `load_amplitude_m`?`.
-pub fn unknown_fields(value: &Value, schema: &Value) -> Vec<SpecIssue> {
-    let mut issues = Vec::new();
-    walk(value, schema, schema, "", &mut issues);
-    issues
-}
-
-fn walk(value: &Value, schema: &Value, root: &Value, path: &str, issues: &mut Vec<SpecIssue>) {
-    let schema = deref(schema, root);
-    match value {
-        Value::Object(map) => {
-            let props = schema.get("properties").and_then(Value::as_object);
-            let closed = schema.get("additionalProperties") == Some(&Value::Bool(false));
-            for (key, v) in map {
-                let sub = format!("{path}/{}", key.replace('~', "~0").replace('/', "~1"));
-                match props.and_then(|p| p.get(key)) {
-                    Some(s) => walk(v, s, root, &sub, issues),
-                    None if closed => {
-                        let names = props.into_iter().flat_map(|p| p.keys().map(String::as_str));
-                        let reason = match did_you_mean(key, names) {
-                            Some(best) => {
-                                format!("unknown field `{key}`, did you mean `{best}`?")
-                            }
-                            None => {
-                                let all: Vec<&str> = props
-                                    .into_iter()
-                                    .flat_map(|p| p.keys().map(String::as_str))
-                                    .collect();
-                                format!("unknown field `{key}`; expected one of {}", all.join(", "))
-                            }
-                        };
-                        issues.push(SpecIssue {
-                            path: path.to_string(),
-                            reason,
-                        });
-                    }
-                    None => {}
-                }
-            }
-        }
-        Value::Array(items) => {
-            if let Some(s) = schema.get("items") {
-                for (i, v) in items.iter().enumerate() {
-                    walk(v, s, root, &format!("{path}/{i}"), issues);
-                }
-            }
-        }
-        _ => {}
-    }
-}
 
 /// The casing of a resolved sweep.
 #[derive(Clone, Debug)]
@@ -301,51 +219,6 @@ fn check_probes(spec: &SweepSpec, casing: &ResolvedCasing, issues: &mut Vec<Spec
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn did_you_mean_finds_close_names_only() {
-        let names = ["load_amplitude_m", "load_ramp_s", "lobes", "duration_s"];
-        assert_eq!(
-            did_you_mean("load_amplitud_m", names),
-            Some("load_amplitude_m")
-        );
-        assert_eq!(did_you_mean("lobse", names), Some("lobes"));
-        assert_eq!(
-            did_you_mean("decimaton", ["decimation", "kernel"]),
-            Some("decimation")
-        );
-        assert_eq!(did_you_mean("colour", names), None);
-        assert_eq!(did_you_mean("x", names), None);
-    }
-
-    #[test]
-    fn unknown_fields_follow_refs_and_arrays() {
-        let schema = serde_json::json!({
-            "type": "object", "additionalProperties": false,
-            "properties": {
-                "a": {"$ref": "#/$defs/inner"},
-                "list": {"type": "array", "items": {"$ref": "#/$defs/inner"}},
-                "open": {"type": "object"}
-            },
-            "$defs": {"inner": {"type": "object", "additionalProperties": false,
-                                "properties": {"speed": {}, "count": {}}}}
-        });
-        let v = serde_json::json!({
-            "a": {"sped": 1}, "list": [{"count": 1}, {"cuont": 2}], "open": {"any": 1},
-            "zzz": 0
-        });
-        let got: Vec<String> = unknown_fields(&v, &schema)
-            .iter()
-            .map(ToString::to_string)
-            .collect();
-        assert_eq!(got.len(), 3, "{got:?}");
-        assert!(got.contains(&"/a: unknown field `sped`, did you mean `speed`?".to_string()));
-        assert!(got.contains(&"/list/1: unknown field `cuont`, did you mean `count`?".to_string()));
-        assert!(
-            got.iter()
-                .any(|s| s.starts_with("/: unknown field `zzz`; expected one of"))
-        );
-    }
 
     #[test]
     fn speed_range_is_the_tabulated_span_when_k_depends_on_omega() {

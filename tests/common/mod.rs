@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests.
 
 use arrow_array::RecordBatch;
-use rubscan::io::parquet::read_results;
+use rubscan::sweep::table::read_results;
 use std::path::Path;
 
 /// The results table of the sweep output folder `dir` without its timing column
