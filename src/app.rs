@@ -318,6 +318,8 @@ pub struct RunArgs {
     pub output: Option<PathBuf>,
     /// Re-run failed jobs too.
     pub retry_failed: bool,
+    /// Also write each job's time series to `<output>/timeseries/<job id>.parquet`.
+    pub timeseries: bool,
 }
 
 /// `rubscan run`: validates the whole spec with its models, then runs (or resumes) the sweep
@@ -337,7 +339,10 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     opts.progress = std::io::stderr().is_terminal();
     opts.retry_failed = args.retry_failed;
     cancel_on_ctrl_c(opts.cancel.clone());
-    let sim = ModelSimulator::from_resolved(resolved)?;
+    let mut sim = ModelSimulator::from_resolved(resolved)?;
+    if args.timeseries {
+        sim = sim.with_timeseries(opts.output_dir.join("timeseries"));
+    }
     let summary = run_sweep(&spec, &opts, &sim)?;
     let records = load_records(&opts.output_dir, plan(&spec)?.jobs.iter());
     let lobes = match &spec.models.casing {

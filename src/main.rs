@@ -61,6 +61,10 @@ enum Command {
         /// Re-run jobs recorded as failed.
         #[arg(long)]
         retry_failed: bool,
+        /// Also write each job's time series (probes at every sample step) to
+        /// <output>/timeseries/<job id>.parquet.
+        #[arg(long)]
+        timeseries: bool,
     },
     /// Merge shard outputs into one table.
     Merge {
@@ -168,6 +172,7 @@ fn dispatch(command: Command) -> Result<(), AppError> {
             shard,
             output,
             retry_failed,
+            timeseries,
         } => app::run(
             &spec,
             &RunArgs {
@@ -175,6 +180,7 @@ fn dispatch(command: Command) -> Result<(), AppError> {
                 shard,
                 output,
                 retry_failed,
+                timeseries,
             },
         )
         .and_then(|summary| app::check_run(&summary)),

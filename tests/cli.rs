@@ -359,3 +359,114 @@ fn help_documents_the_exit_status_and_bad_arguments_exit_1() {
         .unwrap();
     assert_eq!(st.status.code(), Some(1));
 }
+
+/// Every record batch of a Parquet file.
+fn read_all(path: &Path) -> Vec<arrow_array::RecordBatch> {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+        .unwrap()
+        .build()
+        .unwrap()
+        .map(Result::unwrap)
+        .collect()
+}
+
+/// `run --timeseries` writes one time series per job, equal to the one `simulate` writes for
+/// that job, and leaves the results table as it is without time series.
+#[test]
+fn run_timeseries_writes_each_jobs_series_and_leaves_the_table_unchanged() {
+    let dir = tmp("series");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_with(&dir, "spec", |v| {
+        v["scenario"]["duration_s"] = serde_json::json!(0.0008);
+        v["scenario"]["load_ramp_s"] = serde_json::json!(0.0002);
+        v["grid"]["speed"]["values"] = serde_json::json!([2000]);
+    });
+    let (with, without, single) = (dir.join("with"), dir.join("without"), dir.join("simulate"));
+    for (out, extra) in [(&with, Some("--timeseries")), (&without, None)] {
+        let mut c = rubscan();
+        c.args(["run", "--threads", "2"])
+            .arg(&spec)
+            .arg("-o")
+            .arg(out);
+        c.args(extra);
+        let st = c.output().unwrap();
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+    }
+    assert_eq!(table_without_timing(&with), table_without_timing(&without));
+    assert!(!without.join("timeseries").exists());
+    let plan =
+        String::from_utf8(rubscan().arg("plan").arg(&spec).output().unwrap().stdout).unwrap();
+    let ids: Vec<&str> = plan
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split_whitespace().nth(1))
+        .filter(|id| id.len() == 16)
+        .collect();
+    assert_eq!(ids.len(), 2, "{plan}");
+    for (index, id) in ids.iter().enumerate() {
+        let st = rubscan()
+            .arg("simulate")
+            .arg(&spec)
+            .args(["--job", &index.to_string(), "-o"])
+            .arg(&single)
+            .output()
+            .unwrap();
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        let series = read_all(&with.join("timeseries").join(format!("{id}.parquet")));
+        let reference = read_all(&single.join("timeseries.parquet"));
+        let rows: usize = series.iter().map(|b| b.num_rows()).sum();
+        assert_eq!(rows, 4000 / 10, "job {index}: one row per sample step");
+        assert_eq!(
+            series, reference,
+            "job {index}: run and simulate series differ"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// SIGINT (Ctrl-C) during a run stops it cleanly with exit status 130: the jobs in flight are
+/// dropped and the manifest says the scan is incomplete (resuming is tested above).
+#[test]
+fn interrupted_run_exits_130_and_records_an_incomplete_scan() {
+    let dir = tmp("sigint");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_with(&dir, "spec", |v| {
+        v["scenario"]["duration_s"] = serde_json::json!(0.05);
+    });
+    let out = dir.join("out");
+    let mut child = rubscan()
+        .args(["run", "--threads", "1"])
+        .arg(&spec)
+        .arg("-o")
+        .arg(&out)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    // The jobs directory appears once the spec is validated and the handler installed.
+    while !out.join("jobs").exists() && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["complete"], false, "{manifest}");
+    assert_eq!(manifest["summary"]["cancelled"], true, "{manifest}");
+    assert!(job_files(&out) < 6);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

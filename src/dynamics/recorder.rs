@@ -60,6 +60,22 @@ pub trait Recorder {
 /// Why a recorder could not keep a sample (e.g. a time-series file could not be written).
 pub type RecordError = Box<dyn std::error::Error + Send + Sync>;
 
+/// A recorder lent to a run (so the caller keeps it, e.g. to combine it with another).
+impl<R: Recorder + ?Sized> Recorder for &mut R {
+    fn record(&mut self, sample: &Sample<'_>) -> Result<(), RecordError> {
+        (**self).record(sample)
+    }
+}
+
+/// Both recorders receive every sample, the first one first (e.g. a job's aggregates and its
+/// time-series file).
+impl<A: Recorder, B: Recorder> Recorder for (A, B) {
+    fn record(&mut self, sample: &Sample<'_>) -> Result<(), RecordError> {
+        self.0.record(sample)?;
+        self.1.record(sample)
+    }
+}
+
 /// Keeps nothing: runs whose only output is the summary.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoRecorder;

@@ -3,6 +3,7 @@
 //! the steady window, strain energy per nodal diameter, in bounded memory) and adds the
 //! nearest critical speed of the linear interaction criterion.
 
+use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
@@ -11,6 +12,7 @@ use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
 use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::scenario::CoatingCase;
 use crate::dynamics::{Case, CasingModel, LobeLoad, RigidShape, RigidSurface, Simulation};
+use crate::io::timeseries::TimeSeriesWriter;
 use crate::model::rom::CyclicRom;
 use crate::sweep::aggregate::JobAggregator;
 use crate::sweep::planner::{CoatingParams, CoatingValue, Job};
@@ -62,6 +64,8 @@ pub struct ModelSimulator {
     nominal_clearance: Option<f64>,
     /// Critical speeds of the linear interaction criterion, computed once.
     criticals: Vec<CriticalSpeed>,
+    /// Where each job's time series goes (`<dir>/<job id>.parquet`), when asked.
+    timeseries_dir: Option<PathBuf>,
 }
 
 /// Meridian of a rigid casing: the blade-tip contact rows `(r, z)` (leading → trailing edge)
@@ -206,7 +210,17 @@ impl ModelSimulator {
             casing,
             nominal_clearance,
             criticals,
+            timeseries_dir: None,
         })
+    }
+
+    /// Also streams each job's time series (the probes of every sample step, as
+    /// `rubscan simulate` writes them) to `<dir>/<job id>.parquet`, written atomically when the
+    /// job finishes; a failed or cancelled job leaves no file. Recording does not change the
+    /// results.
+    pub fn with_timeseries(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.timeseries_dir = Some(dir.into());
+        self
     }
 
     /// Critical speeds found by the linear interaction criterion (rad/s, nodal diameter, compatibility).
@@ -301,9 +315,23 @@ impl JobSimulator for ModelSimulator {
             window_start,
             JobAggregator::DEFAULT_WINDOW_SAMPLES,
         );
-        let summary = Simulation::new(&case, &self.impeller, &casing)
-            .and_then(|sim| sim.run(&mut rows, Some(cancel)))
-            .map_err(|e| e.to_string())?;
+        let simulation =
+            Simulation::new(&case, &self.impeller, &casing).map_err(|e| e.to_string())?;
+        let summary = match &self.timeseries_dir {
+            None => simulation.run(&mut rows, Some(cancel)),
+            Some(dir) => {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+                let path = dir.join(format!("{}.parquet", job.id));
+                let mut series = TimeSeriesWriter::create(&path).map_err(|e| format!("{e:#}"))?;
+                let summary = simulation.run(&mut (&mut rows, &mut series), Some(cancel));
+                if summary.is_ok() {
+                    series.finish().map_err(|e| format!("{e:#}"))?;
+                }
+                summary
+            }
+        }
+        .map_err(|e| e.to_string())?;
         let mut result = rows.finish(&summary)?;
         result.critical_speed = nearest(&self.criticals, case.omega);
         Ok(result)
