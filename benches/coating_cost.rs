@@ -55,14 +55,14 @@ fn main() {
     for _round in 0..2 {
         for eta in [0, 600, 12000] {
             let out = simulate(&mk(eta, offset), &imp, &casing, None).unwrap();
-            let us = out.loop_seconds / out.n_steps as f64 * 1e6;
+            let us = out.summary.loop_seconds / out.summary.n_steps as f64 * 1e6;
             let entry = best.entry(eta).or_insert(f64::INFINITY);
             *entry = entry.min(us);
-            if let Some(co) = &out.coating {
+            if let Some(co) = &out.summary.coating {
                 println!(
                     "η = {eta}: {us:.2} µs/step, coating steps {}, contact steps {}, peak force {:.3e} N, max wear {:.3e} m, steps/element {:.1}",
                     co.coating_steps,
-                    out.contact_steps,
+                    out.summary.contact_steps,
                     co.peak_force,
                     co.max_wear_final,
                     co.steps_per_element
@@ -70,7 +70,7 @@ fn main() {
             } else {
                 println!(
                     "no coating: {us:.2} µs/step, contact steps {}",
-                    out.contact_steps
+                    out.summary.contact_steps
                 );
             }
         }

@@ -104,15 +104,18 @@ fn wear_profile_converges_in_eta() {
         .collect();
     let wear: Vec<&Vec<Vec<f64>>> = outs
         .iter()
-        .map(|o| &o.coating.as_ref().unwrap().final_wear)
+        .map(|o| &o.summary.coating.as_ref().unwrap().final_wear)
         .collect();
     let fine = *wear.last().unwrap();
-    let co = outs[3].coating.as_ref().unwrap();
+    let co = outs[3].summary.coating.as_ref().unwrap();
     assert!(co.steps_per_element > 2.0, "{}", co.steps_per_element);
     // The scenario wears the coating substantially but does not remove it.
     assert!(co.max_wear_final > 0.2 * half_mm().thickness);
     assert!(co.max_wear_final < half_mm().thickness);
-    assert_eq!(outs[3].contact_steps, 0, "no direct contact expected");
+    assert_eq!(
+        outs[3].summary.contact_steps, 0,
+        "no direct contact expected"
+    );
     let d: Vec<f64> = wear[..3].iter().map(|w| rel_l2(w, fine, 12000)).collect();
     println!(
         "relative L2 distance to η = 12000: 600 {:.4}, 3000 {:.4}, 6000 {:.4}",
@@ -137,7 +140,7 @@ fn localized_full_removal_hands_over_to_lagrange_contact() {
     };
     let e = thin.thickness;
     let out = run(&case(thin, 6000, [1e-4, 0.0], 4e-3));
-    let co = out.coating.as_ref().unwrap();
+    let co = out.summary.coating.as_ref().unwrap();
     let (le, te) = (0, 1);
     // Local full removal at the trailing edge only.
     assert!(co.removed_elements[te] > 0, "{:?}", co.removed_elements);
@@ -156,7 +159,7 @@ fn localized_full_removal_hands_over_to_lagrange_contact() {
     // Coating forces first, multipliers only once the coating is removed.
     let n = out.time.len();
     let lag = |k: usize| out.blade_normal_force.iter().any(|f| f[k] > 0.0);
-    let abr = |k: usize| co.blade_force.iter().any(|f| f[k] > 0.0);
+    let abr = |k: usize| out.coating_blade_force.iter().any(|f| f[k] > 0.0);
     let first_lag = (0..n).find(|&k| lag(k)).expect("direct contact must occur");
     let first_abr = (0..n).find(|&k| abr(k)).expect("coating must be loaded");
     assert!(
@@ -165,18 +168,22 @@ fn localized_full_removal_hands_over_to_lagrange_contact() {
     );
     for k in (0..n).filter(|&k| lag(k)) {
         assert_eq!(
-            co.max_wear[te][k], e,
+            out.coating_max_wear[te][k], e,
             "multiplier active before removal at sample {k}"
         );
     }
     // Both kinds of force coexist at some sample (hybrid scenario, paper Fig. 13c).
     assert!((0..n).any(|k| lag(k) && abr(k)));
-    assert!(out.contact_steps > 10, "{}", out.contact_steps);
     assert!(
-        out.max_residual_penetration <= 1e-8 * out.max_blade_radial,
+        out.summary.contact_steps > 10,
+        "{}",
+        out.summary.contact_steps
+    );
+    assert!(
+        out.summary.max_residual_penetration <= 1e-8 * out.summary.max_blade_radial,
         "residual {:e} vs level {:e}",
-        out.max_residual_penetration,
-        out.max_blade_radial
+        out.summary.max_residual_penetration,
+        out.summary.max_blade_radial
     );
 }
 
@@ -188,7 +195,7 @@ fn peak_coating_force_is_monotone_in_the_moduli() {
         .iter()
         .map(|&s| {
             let out = run(&case(half_mm().scaled(s), 6000, [1e-4, 1e-4], 4e-3));
-            let co = out.coating.unwrap();
+            let co = out.summary.coating.unwrap();
             (co.peak_force, co.max_wear_final)
         })
         .collect();

@@ -73,7 +73,7 @@ fn level(a: &SimulationOutput) -> f64 {
 #[test]
 fn the_reference_run_has_contact() {
     let out = run(base());
-    assert!(out.contact_steps > 0 && level(&out) > 0.0);
+    assert!(out.summary.contact_steps > 0 && level(&out) > 0.0);
 }
 
 #[test]
@@ -83,12 +83,12 @@ fn time_step_sets_the_step_count_and_changes_the_response() {
         time_step: 0.5 * base().time_step,
         ..base()
     });
-    assert_eq!(b.time_step, 0.5 * a.time_step);
+    assert_eq!(b.summary.time_step, 0.5 * a.summary.time_step);
     assert!(
-        b.n_steps >= 2 * a.n_steps - 1,
+        b.summary.n_steps >= 2 * a.summary.n_steps - 1,
         "{} vs {}",
-        b.n_steps,
-        a.n_steps
+        b.summary.n_steps,
+        a.summary.n_steps
     );
     // Same instants every second sample of b: the responses differ by the time error.
     let at_same_times: f64 = a.blade_le_radial[0]
@@ -129,8 +129,8 @@ fn decimation_sets_the_number_of_samples() {
         decimation: 5,
         ..base()
     });
-    assert_eq!(every.time.len(), every.n_steps);
-    assert_eq!(fifth.time.len(), every.n_steps / 5);
+    assert_eq!(every.time.len(), every.summary.n_steps);
+    assert_eq!(fifth.time.len(), every.summary.n_steps / 5);
     // The kept samples are the same instants with the same values.
     assert_eq!(fifth.time[0], every.time[4]);
     assert_eq!(fifth.blade_le_radial[0][0], every.blade_le_radial[0][4]);

@@ -74,17 +74,20 @@ fn assert_common_samples_equal(a: &SimulationOutput, b: &SimulationOutput, strid
         &a.casing_energy.strain,
         &b.casing_energy.strain,
     );
-    if let (Some(ca), Some(cb)) = (&a.coating, &b.coating) {
-        for (x, y) in ca.max_wear.iter().zip(&cb.max_wear) {
+    if let (Some(ca), Some(cb)) = (&a.summary.coating, &b.summary.coating) {
+        for (x, y) in a.coating_max_wear.iter().zip(&b.coating_max_wear) {
             same("coating max wear", x, y);
         }
         assert_eq!(ca.final_wear, cb.final_wear);
     }
     assert_eq!(
-        (a.contact_steps, a.active_contacts),
-        (b.contact_steps, b.active_contacts)
+        (a.summary.contact_steps, a.summary.active_contacts),
+        (b.summary.contact_steps, b.summary.active_contacts)
     );
-    assert_eq!(a.max_blade_radial.to_bits(), b.max_blade_radial.to_bits());
+    assert_eq!(
+        a.summary.max_blade_radial.to_bits(),
+        b.summary.max_blade_radial.to_bits()
+    );
 }
 
 /// Checks the decimations and the aggregator on `case`; returns the run sampled every step.
@@ -95,12 +98,16 @@ fn check_decimations(case: &Case, imp: &CyclicRom, casing: &CasingModel) -> Simu
         run(&c, imp, casing)
     };
     let every = with(1);
-    let coating_steps = every.coating.as_ref().map_or(0, |c| c.coating_steps);
+    let coating_steps = every
+        .summary
+        .coating
+        .as_ref()
+        .map_or(0, |c| c.coating_steps);
     assert!(
-        every.contact_steps + coating_steps > every.n_steps / 2,
+        every.summary.contact_steps + coating_steps > every.summary.n_steps / 2,
         "the case must rub: {} contact and {coating_steps} coating steps of {}",
-        every.contact_steps,
-        every.n_steps
+        every.summary.contact_steps,
+        every.summary.n_steps
     );
     for d in [10, 100] {
         assert_common_samples_equal(&every, &with(d), d);
@@ -120,7 +127,7 @@ fn check_decimations(case: &Case, imp: &CyclicRom, casing: &CasingModel) -> Simu
         .flat_map(|s| s.iter().skip(9).step_by(10))
         .fold(0.0f64, |m, x| m.max(x.abs()));
     assert_eq!(row.maxima.blade_le_radial_m.to_bits(), peak.to_bits());
-    assert_eq!(summary.contact_steps, every.contact_steps);
+    assert_eq!(summary.contact_steps, every.summary.contact_steps);
     every
 }
 
@@ -159,7 +166,7 @@ fn decimation_does_not_change_a_coated_flexible_casing_run() {
         coating: Some(coating),
     };
     let every = check_decimations(&case, &imp, &CasingModel::Flexible(cas));
-    assert!(every.contact_steps > 0 && every.coating.unwrap().coating_steps > 0);
+    assert!(every.summary.contact_steps > 0 && every.summary.coating.unwrap().coating_steps > 0);
 }
 
 #[test]

@@ -92,14 +92,15 @@ pub fn bench_with_offsets(
     };
     let out = simulate(&case, impeller, &casing, None)?;
     let nodes = (impeller.n_sectors * impeller.n_contact()) as f64;
-    let in_contact = out.active_contacts as f64 / (out.n_steps.max(1) as f64 * nodes);
-    let per = 1e6 / out.n_steps.max(1) as f64;
-    let st = out.stage_seconds;
+    let in_contact =
+        out.summary.active_contacts as f64 / (out.summary.n_steps.max(1) as f64 * nodes);
+    let per = 1e6 / out.summary.n_steps.max(1) as f64;
+    let st = out.summary.stage_seconds;
     Ok(BenchResult {
-        us_per_step: out.loop_seconds * per,
+        us_per_step: out.summary.loop_seconds * per,
         contact_fraction: in_contact,
-        contact_step_fraction: out.contact_steps as f64 / out.n_steps.max(1) as f64,
-        n_steps: out.n_steps,
+        contact_step_fraction: out.summary.contact_steps as f64 / out.summary.n_steps.max(1) as f64,
+        n_steps: out.summary.n_steps,
         stage_us: StageSeconds {
             predict: st.predict * per,
             spline: st.spline * per,
@@ -108,8 +109,8 @@ pub fn bench_with_offsets(
             correction: st.correction * per,
             other: st.other * per,
         },
-        time_step: out.time_step,
-        steps_per_revolution: out.steps_per_revolution,
+        time_step: out.summary.time_step,
+        steps_per_revolution: out.summary.steps_per_revolution,
     })
 }
 

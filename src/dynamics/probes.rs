@@ -9,9 +9,10 @@ pub struct EnergySeries {
     pub strain: Vec<f64>,
 }
 
-/// Output of [`crate::dynamics::simulate::simulate`]. Every series has one entry per sample
-/// (`time.len()`); per-blade series are indexed `[blade][sample]`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// Output of [`crate::dynamics::simulate::simulate`]: the series of every sample step and the
+/// run's [`RunSummary`]. Every series has one entry per sample (`time.len()`); per-blade
+/// series are indexed `[blade][sample]`.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SimulationOutput {
     /// Sample times (s).
     pub time: Vec<f64>,
@@ -38,29 +39,19 @@ pub struct SimulationOutput {
     pub casing_energy: EnergySeries,
     /// Impeller strain energy per nodal diameter (J), `[k][sample]`, paper eqs. (20)–(22).
     pub impeller_nd_strain_energy: Vec<Vec<f64>>,
-    /// Time step h (s), stability limit 2/ω_max (s), steps per revolution at Ω.
-    pub time_step: f64,
-    pub stability_limit: f64,
-    pub steps_per_revolution: f64,
-    /// Number of steps, steps with at least one active contact, and the largest residual
-    /// penetration (m, over the sample steps) and largest vibration level (max |blade radial displacement|, m) of the run.
-    pub n_steps: usize,
-    pub contact_steps: usize,
-    /// Number of (step, blade-tip node) pairs with a positive Lagrange multiplier.
-    pub active_contacts: usize,
-    pub max_residual_penetration: f64,
-    pub max_blade_radial: f64,
-    /// Wall-clock time of the stepping loop alone (s), setup excluded.
-    pub loop_seconds: f64,
-    /// Abradable coating probes (`None` without a coating).
-    pub coating: Option<CoatingOutput>,
-    /// The loop time split by stage (s), see [`StageSeconds`].
-    #[serde(default)]
-    pub stage_seconds: StageSeconds,
+    /// Largest wear of each coating row (m) at each sample, `[row][sample]` (empty without a
+    /// coating).
+    pub coating_max_wear: Vec<Vec<f64>>,
+    /// Per blade, sum over its tip nodes of the coating force magnitude (N, along the casing
+    /// normal) applied at the sample step, `[blade][sample]` (empty without a coating).
+    pub coating_blade_force: Vec<Vec<f64>>,
+    /// The run's scalar results.
+    pub summary: RunSummary,
 }
 
-/// Probes of the abradable coating (paper §4, Figs. 12–13). Rows are the impeller contact rows
-/// (leading edge first); element `i` of a row is centred at the fixed-frame angle `2π (i + ½)/η`.
+/// Final state of the abradable coating (paper §4, Figs. 12–13). Rows are the impeller contact
+/// rows (leading edge first); element `i` of a row is centred at the fixed-frame angle
+/// `2π (i + ½)/η`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CoatingOutput {
     /// Number of elements per row η.
@@ -69,11 +60,6 @@ pub struct CoatingOutput {
     pub thickness: f64,
     /// Final wear profile per row (m, removed depth `ε_p e_abr ∈ [0, e_abr]`), `[row][element]`.
     pub final_wear: Vec<Vec<f64>>,
-    /// Largest wear of each row (m) at each sample, `[row][sample]`.
-    pub max_wear: Vec<Vec<f64>>,
-    /// Per blade, sum over its tip nodes of the coating force magnitude (N, along the casing
-    /// normal) applied at the sample step, `[blade][sample]`.
-    pub blade_force: Vec<Vec<f64>>,
     /// Number of fully removed elements (wear = e_abr) per row at the end of the run.
     pub removed_elements: Vec<usize>,
     /// Largest per-blade coating force (N) over every step of the run (not only samples).

@@ -90,11 +90,9 @@ impl Recorder for NoRecorder {
 /// run's length: for tests and short runs).
 #[derive(Clone, Debug, Default)]
 pub struct SeriesRecorder {
-    /// The series recorded so far (the summary fields stay at their defaults).
+    /// The series recorded so far (the summary stays at its default until
+    /// [`SeriesRecorder::into_output`]).
     pub out: SimulationOutput,
-    /// Coating series `[row][sample]` and `[blade][sample]`.
-    pub coating_max_wear: Vec<Vec<f64>>,
-    pub coating_blade_force: Vec<Vec<f64>>,
 }
 
 fn push_each(series: &mut Vec<Vec<f64>>, values: &[f64]) {
@@ -131,8 +129,8 @@ impl Recorder for SeriesRecorder {
             s.impeller_nd_strain_energy,
         );
         if let Some(c) = &s.coating {
-            push_each(&mut self.coating_max_wear, c.max_wear);
-            push_each(&mut self.coating_blade_force, c.blade_force);
+            push_each(&mut o.coating_max_wear, c.max_wear);
+            push_each(&mut o.coating_blade_force, c.blade_force);
         }
         Ok(())
     }
@@ -141,23 +139,8 @@ impl Recorder for SeriesRecorder {
 impl SeriesRecorder {
     /// The recorded series with the run's `summary`, as one [`SimulationOutput`].
     pub fn into_output(self, summary: RunSummary) -> SimulationOutput {
-        let coating = summary.coating.map(|mut c| {
-            c.max_wear = self.coating_max_wear;
-            c.blade_force = self.coating_blade_force;
-            c
-        });
         SimulationOutput {
-            time_step: summary.time_step,
-            stability_limit: summary.stability_limit,
-            steps_per_revolution: summary.steps_per_revolution,
-            n_steps: summary.n_steps,
-            contact_steps: summary.contact_steps,
-            active_contacts: summary.active_contacts,
-            max_residual_penetration: summary.max_residual_penetration,
-            max_blade_radial: summary.max_blade_radial,
-            loop_seconds: summary.loop_seconds,
-            stage_seconds: summary.stage_seconds,
-            coating,
+            summary,
             ..self.out
         }
     }

@@ -1969,11 +1969,11 @@ mod tests {
         )
         .unwrap();
         assert!(
-            f.contact_steps > 20,
+            f.summary.contact_steps > 20,
             "the scenario must rub: {} contact steps",
-            f.contact_steps
+            f.summary.contact_steps
         );
-        assert_eq!(f.contact_steps, d.contact_steps);
+        assert_eq!(f.summary.contact_steps, d.summary.contact_steps);
         for (a, b) in [
             (&f.blade_le_radial, &d.blade_le_radial),
             (&f.blade_te_radial, &d.blade_te_radial),
@@ -1997,7 +1997,7 @@ mod tests {
             .zip(&d.residual_penetration)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        assert!(d.max_residual_penetration > 0.0);
+        assert!(d.summary.max_residual_penetration > 0.0);
         assert!(
             worst <= 1e-9 * max_abs(&d.blade_le_radial),
             "residual: {worst:e}"
@@ -2081,9 +2081,9 @@ mod tests {
         }
         assert!(worst <= tol, "max error {worst:e} > {tol:e}");
         assert!(
-            out.contact_steps >= 1 && out.contact_steps <= 4,
+            out.summary.contact_steps >= 1 && out.summary.contact_steps <= 4,
             "{} contact steps",
-            out.contact_steps
+            out.summary.contact_steps
         );
         // Energy after the impact: only the strain energy at the wall remains, ½ k g0².
         let e_end = out.impeller_energy.kinetic.last().unwrap()
@@ -2144,7 +2144,7 @@ mod tests {
             coating: None,
         };
         let out = simulate(&case, &imp, &CasingModel::Flexible(cas), None).unwrap();
-        assert!(out.contact_steps > 5);
+        assert!(out.summary.contact_steps > 5);
         let e: Vec<f64> = (0..out.time.len())
             .map(|i| {
                 out.impeller_energy.kinetic[i]
@@ -2178,7 +2178,7 @@ mod tests {
             None,
         )
         .unwrap();
-        assert!(out.contact_steps > 0);
+        assert!(out.summary.contact_steps > 0);
         let s = max_abs(&out.blade_le_radial);
         for b in 0..2 {
             let d = max_diff(
@@ -2209,7 +2209,7 @@ mod tests {
             .unwrap()
         };
         let base = run(h, 0.0, 1e-5);
-        assert!(base.contact_steps > 0);
+        assert!(base.summary.contact_steps > 0);
         // ε_NR = 1e-5 and 1e-10 superimposed.
         let tight = run(h, 0.0, 1e-10);
         let s = max_abs(&base.blade_le_radial);
@@ -2224,7 +2224,7 @@ mod tests {
         assert!((p1 - p2).abs() <= 0.01 * p1, "peak {p1:e} vs {p2:e}");
         // μ = 0.01 nearly identical, no instability.
         let fr = run(h, 0.01, 1e-5);
-        assert!(fr.max_blade_radial.is_finite());
+        assert!(fr.summary.max_blade_radial.is_finite());
         let d = max_diff(&base.blade_le_radial, &fr.blade_le_radial);
         assert!(d <= 0.05 * s, "mu: {d:e} vs {s:e}");
         assert!(max_abs(&fr.blade_tangential_force) > 0.0);
@@ -2242,12 +2242,12 @@ mod tests {
             case.duration = 4e-3;
             case.numerics.decimation = 100;
             let out = simulate(&case, &imp, &casing, None).unwrap();
-            assert!(out.contact_steps > 100);
+            assert!(out.summary.contact_steps > 100);
             assert!(
-                out.max_residual_penetration <= 1e-8 * out.max_blade_radial,
+                out.summary.max_residual_penetration <= 1e-8 * out.summary.max_blade_radial,
                 "μ = {mu}: residual {:e} vs level {:e}",
-                out.max_residual_penetration,
-                out.max_blade_radial
+                out.summary.max_residual_penetration,
+                out.summary.max_blade_radial
             );
         }
     }
