@@ -11,6 +11,8 @@
 //!   between them (made once; `RUBSCAN_SIMD=portable` forces the portable path);
 //! - [`io`]: files: atomic writes, content hashes, ROM files and cache, FE model readers, the
 //!   time-series writer (the numerics stages above never touch the file system);
+//! - `fixtures` (tests and benches only, feature `fixtures`): synthetic ROMs and a seeded
+//!   generator;
 //! - [`app`]: each `rubscan` subcommand as a library call (the binary only parses arguments).
 //!
 //! Units are SI everywhere inside (m, kg, s, N, Pa, rad/s).
@@ -19,6 +21,8 @@ pub mod analysis;
 pub mod app;
 pub mod contact;
 pub mod dynamics;
+#[cfg(any(test, feature = "fixtures"))]
+pub mod fixtures;
 pub mod io;
 pub mod model;
 pub mod simd;

@@ -6,8 +6,8 @@ use rubscan::dynamics::abradable::CoatingMaterial;
 use rubscan::dynamics::numerics::{KernelChoice, Numerics};
 use rubscan::dynamics::probes::SimulationOutput;
 use rubscan::dynamics::scenario::{Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad};
-use rubscan::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
 use rubscan::dynamics::{SimError, simulate};
+use rubscan::fixtures::{SyntheticSpec, synthetic_rom};
 use rubscan::model::rom::{Component, CyclicRom, Damping};
 
 /// The small synthetic pair with 1 % modal damping. (Undamped, the fixture's highest modes

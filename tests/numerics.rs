@@ -2,11 +2,11 @@
 //! library API with one field changed at a time.
 
 use rubscan::dynamics::structure::Structure;
-use rubscan::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
 use rubscan::dynamics::{
     Case, CasingModel, InitialVelocity, KernelChoice, LobeLoad, Numerics, SimulationOutput,
     simulate,
 };
+use rubscan::fixtures::{SyntheticSpec, synthetic_rom};
 use rubscan::model::rom::{Component, CyclicRom};
 
 const OMEGA: f64 = 1500.0;

@@ -7,7 +7,7 @@ use rubscan::dynamics::probes::StageSeconds;
 use rubscan::dynamics::scenario::{Case, CasingModel, InitialVelocity, LobeLoad};
 use rubscan::dynamics::simulate::{SimError, simulate};
 use rubscan::dynamics::structure::Structure;
-use rubscan::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+use rubscan::fixtures::{SyntheticSpec, synthetic_rom};
 use rubscan::model::rom::CyclicRom;
 
 /// Result of [`bench_time_step`].

@@ -591,7 +591,7 @@ mod tests {
     /// (each lane, and the partial run), and leaves `last` equal to `now`.
     #[test]
     fn largest_move_is_the_largest_point_distance() {
-        let mut rng = crate::dynamics::synthetic::Lcg(5);
+        let mut rng = crate::fixtures::Lcg(5);
         let mut random = || Vector3::new(rng.next(), rng.next(), rng.next());
         for n in [1, 4, 7, 14] {
             for far in 0..n {

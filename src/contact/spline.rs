@@ -645,7 +645,7 @@ fn thomas_solve_scalar(mult: &[f64], x: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::synthetic::Lcg;
+    use crate::fixtures::Lcg;
     use nalgebra::Rotation3;
     use std::f64::consts::PI;
 

@@ -395,7 +395,7 @@ mod tests {
         use crate::contact::SurfaceParam;
         use crate::dynamics::modal::ModalKernel;
         use crate::dynamics::structure::Structure;
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 3, 2));
         let st = Structure::new(&rom, 0.0).unwrap();
@@ -455,7 +455,7 @@ mod tests {
         use crate::contact::SurfaceParam;
         use crate::dynamics::modal::ModalKernel;
         use crate::dynamics::structure::Structure;
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let best = Isa::best();
         if best.is_portable() {
@@ -472,7 +472,7 @@ mod tests {
             isa: Isa::PORTABLE,
             ..explicit.clone()
         };
-        let mut rng = crate::dynamics::synthetic::Lcg(3);
+        let mut rng = crate::fixtures::Lcg(3);
         let mut param = || SurfaceParam {
             i: (4.0 * (rng.next() + 1.0)) as usize % 8,
             j: (2.0 * (rng.next() + 1.0)) as usize % 4,

@@ -84,7 +84,7 @@ mod tests {
     use crate::dynamics::dense::DenseKernel;
     use crate::dynamics::modal::ModalKernel;
     use crate::dynamics::structure::Structure;
-    use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+    use crate::fixtures::{SyntheticSpec, synthetic_rom};
     use crate::model::rom::{Component, Damping};
 
     fn check_free_flight(spec: SyntheticSpec, omega: f64) {

@@ -10,8 +10,6 @@
 //! - [`simulate`]: the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
 //!   [`recorder`]: what a sample step hands out and who keeps it; [`probes`]: the run's output;
 //! - [`abradable`]: the abradable coating's elastoplastic elements;
-//! - `synthetic`: synthetic ROMs, a test and benchmark fixture compiled only for tests and with
-//!   the `fixtures` feature.
 
 pub mod abradable;
 pub mod contact_solve;
@@ -24,8 +22,6 @@ pub mod recorder;
 pub mod scenario;
 pub mod simulate;
 pub mod structure;
-#[cfg(any(test, feature = "fixtures"))]
-pub mod synthetic;
 
 pub use numerics::{KernelChoice, Numerics};
 pub use probes::{RunSummary, SimulationOutput};

@@ -1046,14 +1046,14 @@ mod tests {
     /// sector (FFTs).
     #[test]
     fn force_rows_equal_the_naive_dft() {
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let ns = 40;
         let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, 3, 2));
         let st = Structure::new(&rom, 0.0).unwrap();
         let mut k = ModalKernel::new(&st, 0.3 * st.stability_limit()).unwrap();
         let (nb, nbp) = (k.nb, k.nbp);
-        let mut rng = crate::dynamics::synthetic::Lcg(5);
+        let mut rng = crate::fixtures::Lcg(5);
         for loaded in [vec![3, 4, 27], (0..ns).collect::<Vec<_>>()] {
             assert_eq!(loaded.len() <= DIRECT_DFT_SECTORS, loaded.len() == 3);
             let mut f = vec![0.0; ns * nb];
@@ -1088,9 +1088,9 @@ mod tests {
     /// four, even but not, and odd, and FFTs beyond `DIRECT_SYNTH_SECTORS`.
     #[test]
     fn boundary_equals_the_naive_inverse_dft() {
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
-        let mut rng = crate::dynamics::synthetic::Lcg(9);
+        let mut rng = crate::fixtures::Lcg(9);
         // Contact nodes 3, 5, 2, 4: 9, 15, 6 and 12 rows per sector, so every partial last
         // band of four rows is stored.
         for (ns, nc) in [
@@ -1133,7 +1133,7 @@ mod tests {
     /// `predict` (the same arithmetic in the same order), and the fused predictor is used.
     #[test]
     fn fused_correction_and_prediction_equal_the_separate_calls() {
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 3, 2));
         let st = Structure::new(&rom, 0.0).unwrap();
@@ -1176,7 +1176,7 @@ mod tests {
     #[test]
     fn a_lobed_load_loads_one_harmonic_and_matches_the_dense_kernel() {
         use crate::dynamics::dense::DenseKernel;
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let (ns, nb) = (8, 9);
         let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, 3, 2));
@@ -1229,7 +1229,7 @@ mod tests {
     /// predictor): equal to round-off (the portable path may not fuse its multiply-adds).
     #[test]
     fn the_portable_kernel_follows_the_explicit_one() {
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let best = Isa::best();
         if best.is_portable() {
@@ -1286,7 +1286,7 @@ mod tests {
     /// against the construction).
     #[test]
     fn paired_modes_are_an_orthonormal_eigenbasis_with_j_partners() {
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::Component;
         let rom = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 6, 3, 4));
         let st = Structure::new(&rom, 800.0).unwrap();

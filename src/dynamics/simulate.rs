@@ -1822,7 +1822,7 @@ mod tests {
     use super::*;
     use crate::dynamics::numerics::Numerics;
     use crate::dynamics::scenario::{InitialVelocity, LobeLoad, RigidShape, RigidSurface};
-    use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+    use crate::fixtures::{SyntheticSpec, synthetic_rom};
     use crate::model::rom::{Component, ContactNode, Damping, HarmonicBlock, HermitianMatrix};
     use nalgebra::DMatrix;
 

@@ -322,7 +322,7 @@ impl Structure {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+    use crate::fixtures::{SyntheticSpec, synthetic_rom};
     use crate::model::rom::Component;
 
     #[test]

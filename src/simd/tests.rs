@@ -5,7 +5,7 @@
 //! checked against plain reference sums.
 
 use super::*;
-use crate::dynamics::synthetic::Lcg;
+use crate::fixtures::Lcg;
 
 /// The explicit path, or `None` with a note that its comparisons are skipped.
 fn explicit(test: &str) -> Option<Isa> {

@@ -222,7 +222,7 @@ mod tests {
 
     #[test]
     fn speed_range_is_the_tabulated_span_when_k_depends_on_omega() {
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::{Component, ModalData};
         let mut rom = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 4, 2, 2));
         rom.modal_data = vec![ModalData {
@@ -252,7 +252,7 @@ mod tests {
     /// A synthetic impeller whose K(Ω) = K0 + Ω² K1 loses definiteness at Ω = 1000 rad/s,
     /// tabulated up to 2000 rad/s (so the range check passes and the eigenvalue check acts).
     fn softening_impeller() -> CyclicRom {
-        use crate::dynamics::synthetic::{SyntheticSpec, synthetic_rom};
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
         use crate::model::rom::{Component, ModalData};
         let mut rom = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 4, 2, 2));
         for h in &mut rom.harmonics {
