@@ -17,11 +17,11 @@ use arrow_array::cast::AsArray;
 use arrow_array::types::Float64Type;
 use arrow_array::{Array, RecordBatch};
 use nalgebra::{DMatrix, Vector3};
-use rubscan::dynamics::structure::generalized_eigen;
 use rubscan::io::calculix::{
     CalculixImportSpec, ContactSelection, Units, import_calculix, read_calculix_mesh,
 };
 use rubscan::io::rom_file;
+use rubscan::model::eigen::symmetric_gen_eigen;
 use rubscan::model::rom::CyclicRom;
 use rubscan::sweep::simulator::ModelSimulator;
 use rubscan::sweep::spec::ModelSource;
@@ -318,7 +318,7 @@ fn held_frequencies(rom: &CyclicRom, held: Option<&[Vector3<f64>]>) -> Vec<f64> 
         }
     };
     let (kt, mt) = (t.transpose() * k * &t, t.transpose() * m * &t);
-    let (lambdas, _) = generalized_eigen(&kt, &mt).expect("reduced pencil is definite");
+    let (lambdas, _) = symmetric_gen_eigen(&kt, &mt).expect("reduced pencil is definite");
     lambdas.iter().map(|l| l.max(0.0).sqrt()).collect()
 }
 

@@ -15,15 +15,9 @@
 
 use crate::contact::CasingSpline;
 use crate::dynamics::kernel::StructureKernel;
+use crate::model::cyclic::rot_z;
 use crate::simd::{self, Isa};
 use nalgebra::{Matrix3, Vector3};
-
-/// Rotation about z by `angle` (rad).
-#[inline]
-pub fn rot_z(angle: f64) -> Matrix3<f64> {
-    let (s, c) = angle.sin_cos();
-    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
-}
 
 /// Block-circulant boundary flexibility `H = [A⁻¹]_bb` of a cyclic structure:
 /// `block(d, j1, j2)` is the 3×3 displacement of node `j1` of sector `s + d` (its local frame)

@@ -15,6 +15,8 @@ pub mod abradable;
 pub mod contact_solve;
 pub mod dense;
 pub mod kernel;
+#[cfg(test)]
+mod kernel_agreement;
 pub mod modal;
 pub mod numerics;
 pub mod probes;

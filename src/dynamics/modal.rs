@@ -38,6 +38,7 @@
 use crate::contact::CasingSpline;
 use crate::dynamics::kernel::{Energies, StructureKernel};
 use crate::dynamics::structure::{NdBlock, Structure, StructureError};
+use crate::model::eigen::EigenError;
 use crate::simd::{self, Isa};
 use nalgebra::{DMatrix, DVector};
 use realfft::num_complex::Complex64;
@@ -181,10 +182,10 @@ impl ModalKernel {
                     damping: b.damping_coef.clone(),
                 }
             } else {
-                paired_modes(b).map_err(|reason| StructureError::Eigen {
+                paired_modes(b).map_err(|source| StructureError::Eigen {
                     name: st.name.clone(),
                     k: b.k,
-                    reason,
+                    source,
                 })?
             };
             let rows = if b.real { nbp } else { 2 * nbp };
@@ -783,7 +784,7 @@ fn surface_harmonics(
             disp[j][d] = 1.0;
             spline.control_points(&disp, &mut dq)?;
             for (cl, hc) in h.iter_mut().enumerate() {
-                let rt = crate::dynamics::contact_solve::rot_z(cl as f64 * alpha).transpose();
+                let rt = crate::model::cyclic::rot_z(cl as f64 * alpha).transpose();
                 for r in 0..m {
                     let v = rt * dq[spline.control_index(cl + 1, r + 1)];
                     for e in 0..3 {
@@ -823,7 +824,7 @@ struct PairedBasis {
 /// traffic per step) and gets `Jv_p` by a swap of halves. Eigenvalue clusters are re-orthonormalised
 /// (Gram–Schmidt in the M inner product); the frequency and damping of each pair are its Rayleigh
 /// quotients `vᵀKv`, `vᵀDv`.
-fn paired_modes(b: &NdBlock) -> Result<PairedBasis, String> {
+fn paired_modes(b: &NdBlock) -> Result<PairedBasis, EigenError> {
     let (n, dim) = (b.n, b.dim);
     let j_of = |v: &DVector<f64>| {
         let mut w = DVector::zeros(dim);
@@ -864,9 +865,7 @@ fn paired_modes(b: &NdBlock) -> Result<PairedBasis, String> {
             }
         }
         if 2 * (chosen.len() - first) != end - start {
-            return Err(format!(
-                "eigenvectors {start}..{end} of the real form do not pair into J-partners"
-            ));
+            return Err(EigenError::NotPaired { start, end });
         }
         start = end;
     }

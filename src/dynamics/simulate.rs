@@ -14,7 +14,7 @@ use crate::contact::{
     project_nodes,
 };
 use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
-use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve, rot_z};
+use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve};
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
@@ -23,6 +23,7 @@ use crate::dynamics::probes::{CoatingOutput, RunSummary, SimulationOutput, Stage
 use crate::dynamics::recorder::{CoatingSample, RecordError, Recorder, Sample, SeriesRecorder};
 use crate::dynamics::scenario::{Case, CasingModel, CoatingCase};
 use crate::dynamics::structure::{Structure, StructureError};
+use crate::model::cyclic::rot_z;
 use crate::model::rom::CyclicRom;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};

@@ -24,8 +24,8 @@
 //! unit disc iff `ω h < 2`, whatever `c ≥ 0`. Hence `h_crit = 2/ω_max` exactly, with or without
 //! damping; `h ≥ h_crit` is refused.
 
+use crate::model::eigen::{EigenError, symmetric_gen_eigen};
 use crate::model::rom::{CyclicRom, Damping, RomError};
-use faer::{Mat, Side};
 use nalgebra::DMatrix;
 use thiserror::Error;
 
@@ -34,11 +34,11 @@ use thiserror::Error;
 pub enum StructureError {
     #[error("ROM `{name}` is invalid: {source}")]
     Rom { name: String, source: RomError },
-    #[error("ROM `{name}`, nodal diameter {k}: eigen-decomposition failed ({reason})")]
+    #[error("ROM `{name}`, nodal diameter {k}: eigen-decomposition failed ({source})")]
     Eigen {
         name: String,
         k: usize,
-        reason: String,
+        source: EigenError,
     },
     #[error(
         "ROM `{name}`, nodal diameter {k}: K(Ω = {omega} rad/s) is not positive semi-definite (eigenvalue {lambda:.4e} (rad/s)²)"
@@ -99,36 +99,6 @@ pub struct Structure {
     pub omega_max: f64,
 }
 
-/// Generalized symmetric-definite eigenproblem `K x = λ M x` by the Cholesky route (faer):
-/// eigenvalues ascending, eigenvectors mass-normalized.
-pub fn generalized_eigen(
-    k: &DMatrix<f64>,
-    m: &DMatrix<f64>,
-) -> Result<(Vec<f64>, DMatrix<f64>), String> {
-    let n = k.nrows();
-    let mf = Mat::<f64>::from_fn(n, n, |i, j| 0.5 * (m[(i, j)] + m[(j, i)]));
-    let kf = Mat::<f64>::from_fn(n, n, |i, j| 0.5 * (k[(i, j)] + k[(j, i)]));
-    let llt = mf
-        .llt(Side::Lower)
-        .map_err(|e| format!("mass Cholesky: {e:?}"))?;
-    let l = llt.L();
-    let mut c = kf.clone();
-    l.solve_lower_triangular_in_place(c.as_mut());
-    let mut c2 = c.transpose().to_owned();
-    l.solve_lower_triangular_in_place(c2.as_mut());
-    // Symmetrize against round-off before the self-adjoint solver reads the lower triangle.
-    let c3 = Mat::<f64>::from_fn(n, n, |i, j| 0.5 * (c2[(i, j)] + c2[(j, i)]));
-    let ev = c3
-        .self_adjoint_eigen(Side::Lower)
-        .map_err(|e| format!("{e:?}"))?;
-    let mut x = ev.U().to_owned();
-    l.transpose().solve_upper_triangular_in_place(x.as_mut());
-    let s = ev.S().column_vector();
-    let lambdas: Vec<f64> = (0..n).map(|i| s[i]).collect();
-    let phi = DMatrix::from_fn(n, n, |i, j| x[(i, j)]);
-    Ok((lambdas, phi))
-}
-
 impl Structure {
     /// Freezes `rom` at rotation speed `omega` (rad/s): K(Ω), damping, per-ND eigenpairs.
     pub fn new(rom: &CyclicRom, omega: f64) -> Result<Self, StructureError> {
@@ -151,10 +121,10 @@ impl Structure {
             let mass = h.mass.real_form(real);
             let stiffness = h.stiffness_at(omega).real_form(real);
             let (lambdas, modes) =
-                generalized_eigen(&stiffness, &mass).map_err(|reason| StructureError::Eigen {
+                symmetric_gen_eigen(&stiffness, &mass).map_err(|source| StructureError::Eigen {
                     name: rom.name.clone(),
                     k,
-                    reason,
+                    source,
                 })?;
             let lmax = lambdas.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
             let mut om = Vec::with_capacity(dim);

@@ -33,6 +33,7 @@
 //! [`speed_polynomial_from_samples`]: project each speed's stiffness with the same basis
 //! (e.g. [`project`] with the `T` of the reference speed) and fit `K0, K1, K2` exactly.
 
+use crate::model::eigen::symmetric_gen_eigen;
 use crate::model::rom::{
     Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData,
 };
@@ -679,28 +680,11 @@ fn dense_eigen(
     m: &DMatrix<f64>,
     count: usize,
 ) -> Result<(Vec<f64>, DMatrix<f64>), ComponentError> {
-    let chol = m
-        .clone()
-        .cholesky()
-        .ok_or_else(|| ComponentError::ReducedEigen("reduced mass not positive definite".into()))?;
-    let l = chol.l();
-    let a = l
-        .solve_lower_triangular(k)
-        .and_then(|x| l.solve_lower_triangular(&x.transpose()))
-        .ok_or_else(|| ComponentError::ReducedEigen("singular Cholesky factor".into()))?;
-    let a = (&a + a.transpose()) * 0.5;
-    let dim = a.nrows();
-    let eig = a.symmetric_eigen();
-    let mut order: Vec<usize> = (0..eig.eigenvalues.len()).collect();
-    order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
-    let count = count.min(order.len());
-    let lambdas = order[..count].iter().map(|&i| eig.eigenvalues[i]).collect();
-    let q = DMatrix::from_fn(dim, count, |r, c| eig.eigenvectors[(r, order[c])]);
-    let x = l
-        .transpose()
-        .solve_upper_triangular(&q)
-        .ok_or_else(|| ComponentError::ReducedEigen("singular Cholesky factor".into()))?;
-    Ok((lambdas, x))
+    let (mut lambdas, x) =
+        symmetric_gen_eigen(k, m).map_err(|e| ComponentError::ReducedEigen(e.to_string()))?;
+    let count = count.min(lambdas.len());
+    lambdas.truncate(count);
+    Ok((lambdas, x.columns(0, count).into_owned()))
 }
 
 /// Exact fit of `K(Ω) = K0 + Ω² K1 + Ω⁴ K2` through reduced stiffness matrices at three

@@ -14,6 +14,7 @@
 
 use faer::c64;
 use faer::sparse::{SparseColMat, Triplet};
+use nalgebra::Matrix3;
 use std::f64::consts::PI;
 use thiserror::Error;
 
@@ -81,10 +82,11 @@ pub struct CyclicDofMap {
     n_first: usize,
 }
 
-/// Rotation matrix about `+z` by `angle` (rad), row-major.
-pub fn rotation_z(angle: f64) -> [[f64; 3]; 3] {
+/// Rotation matrix about `+z` by `angle` (rad): sector frames, the rotating frame `R(Ω t)`.
+#[inline]
+pub fn rot_z(angle: f64) -> Matrix3<f64> {
     let (s, c) = angle.sin_cos();
-    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 }
 
 /// The inter-sector phase `e^{ikα}` with `α = 2π/N`, exactly ±1 for the real harmonics.
@@ -234,7 +236,7 @@ impl CyclicDofMap {
         &self,
         dof: usize,
         phase: c64,
-        rot: &[[f64; 3]; 3],
+        rot: &Matrix3<f64>,
     ) -> ([(usize, c64); 3], usize, bool) {
         let (node, dir) = (dof / 3, dof % 3);
         let mut out = [(0, c64::new(0.0, 0.0)); 3];
@@ -246,7 +248,7 @@ impl CyclicDofMap {
             }
             NodeRole::Right { first } => {
                 let mut n = 0;
-                for (b, &r) in rot[dir].iter().enumerate() {
+                for (b, &r) in rot.row(dir).iter().enumerate() {
                     if r != 0.0 {
                         out[n] = (first + b, phase * r);
                         n += 1;
@@ -278,7 +280,7 @@ impl CyclicDofMap {
             return Err(CyclicError::NodalDiameter { k, max });
         }
         let phase = cyclic_phase(k, self.n_sectors);
-        let rot = rotation_z(2.0 * PI / self.n_sectors as f64);
+        let rot = rot_z(2.0 * PI / self.n_sectors as f64);
         let mut out = Vec::with_capacity(a.compute_nnz() * 2);
         for col in 0..a.ncols() {
             let (tc, nc, _) = self.terms(col, phase, &rot);
@@ -320,7 +322,7 @@ impl CyclicDofMap {
         self.check_shape(a.nrows(), a.ncols())?;
         let n_sec = self.n_sectors;
         let ni = self.n_independent;
-        let rot = rotation_z(2.0 * PI / n_sec as f64);
+        let rot = rot_z(2.0 * PI / n_sec as f64);
         let one = c64::new(1.0, 0.0);
         let mut out = Vec::with_capacity(a.compute_nnz() * 2 * n_sec);
         for col in 0..a.ncols() {
@@ -519,7 +521,7 @@ pub(crate) mod test_support {
 mod tests {
     use super::test_support::truss_sector;
     use super::*;
-    use crate::model::reduction::dense_gen_eigen;
+    use crate::model::eigen::dense_gen_eigen;
     use faer::Mat;
 
     fn real_dense(a: &SparseColMat<usize, f64>) -> Mat<c64> {

@@ -2,9 +2,13 @@
 //! Craig–Bampton reduction (cyclic and single-component) and the reduced-order model (ROM) type.
 
 pub mod build;
+#[cfg(test)]
+mod builtin_sectors;
 pub mod component;
 pub mod cyclic;
+pub mod eigen;
 pub mod fe;
+pub mod hex20;
 pub mod mesh;
 pub mod reduction;
 pub mod rom;

@@ -20,19 +20,15 @@
 //! iteration on that factor otherwise. The nodal diameters are processed in parallel (rayon).
 
 use crate::model::cyclic::{CyclicDofMap, CyclicError, SectorTopology, is_real_harmonic};
+use crate::model::eigen::{EigenError, dense_gen_eigen};
 use crate::model::fe::SectorMatrices;
 use crate::model::mesh::SectorMesh;
 use crate::model::rom::{
     Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData, RomError,
 };
-use faer::linalg::triangular_solve::{
-    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
-};
 use faer::prelude::Solve;
 use faer::sparse::{SparseColMat, Triplet};
-use faer::traits::ComplexField;
-use faer::traits::math_utils::real;
-use faer::{Mat, MatRef, Par, Side, c64};
+use faer::{Mat, MatRef, Side, c64};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -101,8 +97,8 @@ pub enum ReductionError {
         what: &'static str,
         detail: String,
     },
-    #[error("nodal diameter {k}: eigensolver failed: {detail}")]
-    Eigen { k: usize, detail: String },
+    #[error("nodal diameter {k}: eigensolver failed: {source}")]
+    Eigen { k: usize, source: EigenError },
     #[error(
         "nodal diameter {k}: subspace iteration did not converge in {iterations} iterations (relative residual {residual:.2e})"
     )]
@@ -325,7 +321,7 @@ pub fn reduce_harmonic(
         (vec![], Mat::zeros(ni, 0))
     } else if ni <= opts.dense_eigen_limit {
         let (lam, phi) = dense_gen_eigen(k_ii.to_dense().as_ref(), m_ii.to_dense().as_ref(), real)
-            .map_err(|detail| ReductionError::Eigen { k, detail })?;
+            .map_err(|source| ReductionError::Eigen { k, source })?;
         (lam[..n_m].to_vec(), phi.subcols(0, n_m).to_owned())
     } else {
         subspace_iteration(&k_ii, &m_ii, &llt, n_m, real, k)?
@@ -360,7 +356,7 @@ pub fn reduce_harmonic(
         stiffness: [k0, k1, k2],
     };
     let modal = modal_data(&block, nb, real, &opts.omega_grid)
-        .map_err(|detail| ReductionError::Eigen { k, detail })?;
+        .map_err(|source| ReductionError::Eigen { k, source })?;
     Ok(HarmonicReduction {
         block,
         modal,
@@ -382,7 +378,7 @@ pub fn modal_data(
     nb: usize,
     real: bool,
     omega_grid: &[f64],
-) -> Result<ModalData, String> {
+) -> Result<ModalData, EigenError> {
     let grid: Vec<f64> = if omega_grid.is_empty() {
         vec![0.0]
     } else {
@@ -447,53 +443,6 @@ pub fn to_faer(h: &HermitianMatrix) -> Mat<c64> {
     })
 }
 
-/// All eigenpairs of the Hermitian-definite pencil `K x = λ M x`, sorted ascending, with
-/// `Xᴴ M X = I`. With `real`, the imaginary parts are ignored and the eigenvectors are real
-/// (a complex solver would return them with arbitrary phases).
-pub fn dense_gen_eigen(
-    k: MatRef<'_, c64>,
-    m: MatRef<'_, c64>,
-    real: bool,
-) -> Result<(Vec<f64>, Mat<c64>), String> {
-    if real {
-        let kr = Mat::from_fn(k.nrows(), k.ncols(), |i, j| k[(i, j)].re);
-        let mr = Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)].re);
-        let (lam, x) = gen_eigen_generic(kr.as_ref(), mr.as_ref())?;
-        Ok((
-            lam,
-            Mat::from_fn(x.nrows(), x.ncols(), |i, j| c64::new(x[(i, j)], 0.0)),
-        ))
-    } else {
-        gen_eigen_generic(k, m)
-    }
-}
-
-fn gen_eigen_generic<T: ComplexField<Real = f64>>(
-    k: MatRef<'_, T>,
-    m: MatRef<'_, T>,
-) -> Result<(Vec<f64>, Mat<T>), String> {
-    let n = k.nrows();
-    let llt = m
-        .llt(Side::Lower)
-        .map_err(|e| format!("mass Cholesky: {e:?}"))?;
-    let l = llt.L();
-    let mut c = k.to_owned();
-    solve_lower_triangular_in_place(l, c.as_mut(), Par::Seq);
-    let mut c2 = c.adjoint().to_owned();
-    solve_lower_triangular_in_place(l, c2.as_mut(), Par::Seq);
-    let evd = c2
-        .self_adjoint_eigen(Side::Lower)
-        .map_err(|e| format!("{e:?}"))?;
-    let s = evd.S().column_vector();
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| real(&s[a]).total_cmp(&real(&s[b])));
-    let lam = order.iter().map(|&i| real(&s[i])).collect();
-    let u = evd.U();
-    let mut x = Mat::from_fn(n, n, |i, j| u[(i, order[j])].clone());
-    solve_upper_triangular_in_place(l.adjoint(), x.as_mut(), Par::Seq);
-    Ok((lam, x))
-}
-
 /// Lowest `n_m` eigenpairs of `K x = λ M x` by subspace iteration with Rayleigh–Ritz on the
 /// sparse Cholesky factor of `K` (shift 0: `K` is definite here). Converges at the rate
 /// `λ_i / λ_{p+1}` with `p = max(2 n_m, n_m + 8)` trial vectors.
@@ -536,7 +485,7 @@ fn subspace_iteration(
         let kr = y.adjoint() * (k * &y);
         let mr = y.adjoint() * (m * &y);
         let (l, q) = dense_gen_eigen(kr.as_ref(), mr.as_ref(), real)
-            .map_err(|detail| ReductionError::Eigen { k: kd, detail })?;
+            .map_err(|source| ReductionError::Eigen { k: kd, source })?;
         x = &y * &q;
         let settled = (0..n_m).all(|i| (l[i] - prev[i]).abs() <= TOL * l[i].abs());
         prev.copy_from_slice(&l[..n_m]);

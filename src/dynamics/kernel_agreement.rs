@@ -1,0 +1,96 @@
+//! The two kernels checked against each other: the fast modal kernel and the dense reference
+//! advance the same structure through the same loads to the same states (free flight, loads,
+//! corrections, energies). Beside both, since it needs both.
+
+use crate::dynamics::dense::DenseKernel;
+use crate::dynamics::kernel::StructureKernel;
+use crate::dynamics::modal::ModalKernel;
+use crate::dynamics::structure::Structure;
+use crate::fixtures::{SyntheticSpec, synthetic_rom};
+use crate::model::rom::{Component, Damping};
+
+fn check_free_flight(spec: SyntheticSpec, omega: f64) {
+    let rom = synthetic_rom(&spec);
+    let st = Structure::new(&rom, omega).unwrap();
+    let h = 0.3 * st.stability_limit();
+    let mut fast = ModalKernel::new(&st, h).unwrap();
+    let mut dense = DenseKernel::new(&st, h);
+    let n = st.n_modal;
+    let v0: Vec<f64> = (0..n).map(|i| ((i * 7 % 13) as f64 - 6.0) * 0.01).collect();
+    let pat: Vec<f64> = (0..st.n_sectors * st.n_boundary)
+        .map(|i| ((i * 5 % 11) as f64 - 5.0) * 10.0)
+        .collect();
+    for k in [&mut fast as &mut dyn StructureKernel, &mut dense] {
+        k.set_initial_velocity(&v0);
+        k.set_load_pattern(&pat);
+    }
+    let nb = st.n_sectors * st.n_boundary;
+    let mut scale = 0.0f64;
+    let mut worst = 0.0f64;
+    for step in 0..400 {
+        let amp = (step as f64 * 0.05).sin();
+        fast.predict(amp);
+        dense.predict(amp);
+        if step % 50 == 7 {
+            // Same correction force on both (exercises A⁻¹ f).
+            let f: Vec<f64> = (0..nb).map(|i| ((i + step) % 3) as f64 - 1.0).collect();
+            fast.correct(&f);
+            dense.correct(&f);
+        }
+        for (a, b) in fast.boundary().iter().zip(dense.boundary()) {
+            scale = scale.max(b.abs());
+            worst = worst.max((a - b).abs());
+        }
+        fast.advance();
+        dense.advance();
+    }
+    assert!(scale > 0.0);
+    assert!(
+        worst <= 1e-12 * scale,
+        "fast vs dense: {worst:e} vs scale {scale:e}"
+    );
+    let (ef, ed) = (fast.energies(), dense.energies());
+    assert!((ef.kinetic - ed.kinetic).abs() <= 1e-10 * ed.kinetic);
+    assert!((ef.strain - ed.strain).abs() <= 1e-10 * ed.strain.abs());
+    let kmax = st.blocks.len();
+    let (mut a, mut b) = (vec![0.0; kmax], vec![0.0; kmax]);
+    fast.nd_strain_energy(&mut a);
+    dense.nd_strain_energy(&mut b);
+    let tot: f64 = b.iter().sum();
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() <= 1e-9 * tot);
+    }
+    // Boundary flexibility: response of a unit force equals a column of A⁻¹_bb.
+    let mut f = vec![0.0; nb];
+    f[nb - 2] = 1.0;
+    let (mut ra, mut rb) = (vec![0.0; nb], vec![0.0; nb]);
+    fast.response(&f, &mut ra);
+    dense.response(&f, &mut rb);
+    let s = rb.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for (x, y) in ra.iter().zip(&rb) {
+        assert!((x - y).abs() <= 1e-12 * s);
+    }
+}
+
+#[test]
+fn fast_and_dense_agree_in_free_flight() {
+    let damped = |mut s: SyntheticSpec| {
+        s.damping = Damping::Modal { ratio: 0.02 };
+        s
+    };
+    check_free_flight(
+        damped(SyntheticSpec::small(Component::Casing, 8, 3, 2)),
+        0.0,
+    );
+    check_free_flight(
+        damped(SyntheticSpec::small(Component::Impeller, 5, 2, 3)),
+        800.0,
+    );
+    let mut s = SyntheticSpec::small(Component::Impeller, 4, 2, 2);
+    s.damping = Damping::Rayleigh {
+        alpha: 5.0,
+        beta: 1e-7,
+    };
+    check_free_flight(s, 500.0);
+    check_free_flight(SyntheticSpec::small(Component::Impeller, 1, 1, 1), 0.0);
+}
