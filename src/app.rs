@@ -347,6 +347,7 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     let records = load_records(&opts.output_dir, plan(&spec)?.jobs.iter());
     let lobes = match &spec.models.casing {
         CasingSource::Rigid(r) => r.lobes,
+        CasingSource::ImposedGap(g) => g.profile.lobes().unwrap_or(1) as u32,
         _ => spec.scenario.lobes.unwrap_or(2),
     }
     .max(1);

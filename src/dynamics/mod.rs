@@ -14,6 +14,7 @@
 pub mod abradable;
 pub mod contact_solve;
 pub mod dense;
+mod imposed_casing;
 pub mod kernel;
 #[cfg(test)]
 mod kernel_agreement;

@@ -1,6 +1,7 @@
 //! The case definition: rotation speed, duration, friction, casing load (case study 1 of the
 //! paper), clearance offsets, probes and numerics; and the casing model (flexible or rigid).
 
+use crate::contact::ImposedGap;
 use crate::dynamics::abradable::{CoatingLayer, CoatingMaterial};
 use crate::dynamics::numerics::Numerics;
 use crate::model::rom::CyclicRom;
@@ -88,11 +89,17 @@ impl RigidSurface {
     }
 }
 
-/// The casing: a flexible cyclic ROM or a rigid prescribed shape.
+/// The casing: a flexible cyclic ROM, a rigid prescribed surface, or rigid gaps imposed per
+/// blade-tip node.
 #[derive(Clone, Debug)]
 pub enum CasingModel {
+    /// A flexible cyclic casing (its ROM, fixed frame); its surface is the spline of eqs. 5–13.
     Flexible(CyclicRom),
+    /// A rigid casing surface (the spline through its stations).
     Rigid(RigidSurface),
+    /// A rigid casing given as a gap per blade-tip node along a fixed direction (the Rotor 37
+    /// benchmark's form); no surface, no coating.
+    ImposedGap(ImposedGap),
 }
 
 /// Initial velocities (m/s, assembled physical DOF ordering of each ROM); displacements start at 0.

@@ -184,25 +184,10 @@ impl ModelSimulator {
                 compatibility: c.compatibility.unwrap_or(0.0),
             })
             .collect(),
-            ResolvedCasing::Rigid(r) => {
-                // A rigid casing has no modes: the critical speeds are the engine-order crossings of
-                // the lobe harmonics, whose shapes are compatible by construction (score 1).
-                let lobes = r.lobes as usize;
-                interaction::engine_order_crossings(
-                    &impeller.modal_data,
-                    impeller.n_sectors,
-                    lobes,
-                    12 * lobes,
-                    &opts,
-                )
-                .context("engine-order crossings")?
-                .into_iter()
-                .map(|c| CriticalSpeed {
-                    speed_rad_s: c.omega_rad_s,
-                    nodal_diameter: c.nodal_diameter as u32,
-                    compatibility: 1.0,
-                })
-                .collect()
+            // A tabulated imposed-gap profile holds every harmonic: from the first on.
+            ResolvedCasing::Rigid(r) => rigid_criticals(&impeller, r.lobes as usize, &opts)?,
+            ResolvedCasing::ImposedGap(g) => {
+                rigid_criticals(&impeller, g.profile.lobes().unwrap_or(1), &opts)?
             }
         };
         Ok(Self {
@@ -232,7 +217,7 @@ impl ModelSimulator {
     pub fn casing_rom(&self) -> Option<&CyclicRom> {
         match &self.casing {
             ResolvedCasing::Flexible(rom) => Some(rom),
-            ResolvedCasing::Rigid(_) => None,
+            ResolvedCasing::Rigid(_) | ResolvedCasing::ImposedGap(_) => None,
         }
     }
 
@@ -290,6 +275,8 @@ impl ModelSimulator {
                 );
                 (CasingModel::Rigid(rigid), vec![], None)
             }
+            // The profile holds the clearance; the spec admits no coating with it.
+            ResolvedCasing::ImposedGap(g) => (CasingModel::ImposedGap(g.clone()), vec![], None),
         };
         let case = Case {
             omega: p.speed_rad_s,
@@ -304,6 +291,30 @@ impl ModelSimulator {
         };
         Ok((case, casing, extras))
     }
+}
+
+/// A rigid casing has no modes: its critical speeds are the engine-order crossings of the
+/// harmonics of its `lobes`, whose shapes are compatible by construction (score 1).
+fn rigid_criticals(
+    impeller: &CyclicRom,
+    lobes: usize,
+    opts: &CriterionOptions,
+) -> Result<Vec<CriticalSpeed>> {
+    Ok(interaction::engine_order_crossings(
+        &impeller.modal_data,
+        impeller.n_sectors,
+        lobes,
+        12 * lobes,
+        opts,
+    )
+    .context("engine-order crossings")?
+    .into_iter()
+    .map(|c| CriticalSpeed {
+        speed_rad_s: c.omega_rad_s,
+        nodal_diameter: c.nodal_diameter as u32,
+        compatibility: 1.0,
+    })
+    .collect())
 }
 
 impl JobSimulator for ModelSimulator {

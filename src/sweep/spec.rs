@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Deserializer, Serialize};
 use serde_json::Value;
 
+use crate::contact::ImposedGap;
 use crate::dynamics::abradable::CoatingMaterial;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
 use crate::model::build::{CasingSpec, ImpellerSpec};
@@ -98,12 +99,15 @@ pub enum CasingSource {
     Rom(PathBuf),
     /// Rigid casing with an n-lobe radial distortion.
     Rigid(RigidCasing),
+    /// Rigid casing given as a gap per blade-tip node along a fixed direction, a function of
+    /// the node's angle θ = Ω t + φ (the public Rotor 37 benchmark's form).
+    ImposedGap(ImposedGap),
 }
 
 impl CasingSource {
-    /// True for a rigid casing (no modes, no load, no probes).
+    /// True for a rigid casing, surface or imposed gaps (no modes, no load, no probes).
     pub fn is_rigid(&self) -> bool {
-        matches!(self, CasingSource::Rigid(_))
+        matches!(self, CasingSource::Rigid(_) | CasingSource::ImposedGap(_))
     }
 }
 
@@ -504,6 +508,14 @@ impl SweepSpec {
                     });
                 }
             }
+            CasingSource::ImposedGap(g) => {
+                if let Err(reason) = g.profile.validate() {
+                    issues.push(SpecIssue {
+                        path: "/models/casing/imposed_gap/profile".into(),
+                        reason,
+                    });
+                }
+            }
             _ => {}
         }
         self.validate_scenario(&mut issues);
@@ -657,7 +669,7 @@ impl SweepSpec {
             if sc.lobes.is_some() {
                 reject(
                     "/scenario/lobes",
-                    &format!("{flexible_only} takes its lobes from /models/casing/rigid/lobes"),
+                    &format!("{flexible_only} takes its lobes from its own profile"),
                 );
             }
             if sc.load_amplitude_m.is_some() {
@@ -678,13 +690,37 @@ impl SweepSpec {
                     &format!("{flexible_only} does not move"),
                 );
             }
-            if let (Some(_), CasingSource::Rigid(r)) = (sc.rigid_stations, &self.models.casing)
-                && r.gap_offsets_m.is_some()
-            {
-                reject(
+            match (sc.rigid_stations, &self.models.casing) {
+                (Some(_), CasingSource::Rigid(r)) if r.gap_offsets_m.is_some() => reject(
                     "/scenario/rigid_stations",
                     "the length of /models/casing/rigid/gap_offsets_m sets the stations",
-                );
+                ),
+                (Some(_), CasingSource::ImposedGap(_)) => reject(
+                    "/scenario/rigid_stations",
+                    "applies to a rigid casing surface only (an imposed-gap casing has no stations)",
+                ),
+                _ => {}
+            }
+            if let CasingSource::ImposedGap(_) = &self.models.casing {
+                let no_surface = "needs a casing surface; an imposed-gap casing has none";
+                if sc.coating.is_some() {
+                    reject(
+                        "/scenario/coating",
+                        &format!("the abradable coating {no_surface}"),
+                    );
+                }
+                if self.grid.coating.is_some() {
+                    reject(
+                        "/grid/coating",
+                        &format!("the abradable coating {no_surface}"),
+                    );
+                }
+                if self.grid.clearance_m.is_some() {
+                    reject(
+                        "/grid/clearance_m",
+                        "an imposed-gap casing takes its clearance from its profile",
+                    );
+                }
             }
         } else {
             if sc.rigid_stations.is_some() {
@@ -897,6 +933,7 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::{GapDirection, GapProfile};
     use std::collections::BTreeSet;
 
     fn base() -> Value {
@@ -1188,6 +1225,65 @@ mod tests {
         assert!(spec_from_value(v).is_ok());
     }
 
+    #[test]
+    fn imposed_gap_casing_takes_no_surface_options_and_a_valid_profile() {
+        let imposed = |v: &mut Value| {
+            v["models"]["casing"] = serde_json::json!({"imposed_gap": {"profile":
+                {"gaussian_lobes": {"mean_gap_m": 3.56e-4, "width": 0.15, "lobes": 2}}}});
+            for field in ["lobes", "load_amplitude_m", "load_ramp_s"] {
+                v["scenario"].as_object_mut().unwrap().remove(field);
+            }
+        };
+        let mut v = base();
+        imposed(&mut v);
+        let spec = spec_from_value(v.clone()).unwrap();
+        assert!(matches!(
+            &spec.models.casing,
+            CasingSource::ImposedGap(ImposedGap {
+                direction: GapDirection::Radial,
+                ..
+            })
+        ));
+        // Surface options are rejected, each at its pointer.
+        for (path, value) in [
+            ("/scenario/coating", serde_json::json!({})),
+            ("/scenario/rigid_stations", serde_json::json!(60)),
+            ("/scenario/casing_probes", serde_json::json!([[0, 1]])),
+        ] {
+            let mut w = v.clone();
+            w["scenario"][path.rsplit('/').next().unwrap()] = value;
+            let i = issues_of(w);
+            assert!(
+                i.iter().any(|s| s.starts_with(&format!("{path}: "))),
+                "{path}: {i:?}"
+            );
+        }
+        let mut w = v.clone();
+        w["grid"]["clearance_m"] = serde_json::json!([1e-4]);
+        assert!(
+            issues_of(w)
+                .iter()
+                .any(|s| s.starts_with("/grid/clearance_m: "))
+        );
+        // A profile out of its bounds names it; a misspelled profile field is caught by name.
+        let mut w = v.clone();
+        w["models"]["casing"]["imposed_gap"]["profile"]["gaussian_lobes"]["width"] =
+            serde_json::json!(0.0);
+        assert!(
+            issues_of(w)
+                .iter()
+                .any(|s| s.starts_with("/models/casing/imposed_gap/profile"))
+        );
+        let mut w = v.clone();
+        w["models"]["casing"]["imposed_gap"]["profile"] =
+            serde_json::json!({"gaussian_lobes": {"mean_gap": 3.56e-4, "width": 0.15, "lobes": 2}});
+        let i = issues_of(w);
+        assert!(
+            i.iter().any(|s| s.contains("did you mean `mean_gap_m`")),
+            "{i:?}"
+        );
+    }
+
     /// Property paths of the schema (array items as `*`), following `$ref`s; asserts that
     /// every object with properties is closed.
     fn schema_paths(schema: &Value, root: &Value, path: &str, out: &mut BTreeSet<String>) {
@@ -1206,6 +1302,14 @@ mod tests {
         }
         if let Some(items) = schema.get("items") {
             schema_paths(items, root, &format!("{path}/*"), out);
+        }
+        for alt in schema
+            .get("oneOf")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            schema_paths(alt, root, path, out);
         }
     }
 
@@ -1306,7 +1410,23 @@ mod tests {
         });
         let mut d = a.clone();
         d.models.casing = CasingSource::Rom("c.rom".into());
-        vec![a, b, c, d]
+        let mut e = c.clone();
+        e.models.casing = CasingSource::ImposedGap(ImposedGap {
+            profile: GapProfile::GaussianLobes {
+                mean_gap: 3.56e-4,
+                width: 0.15,
+                lobes: 2,
+            },
+            direction: GapDirection::Radial,
+        });
+        let mut f = e.clone();
+        f.models.casing = CasingSource::ImposedGap(ImposedGap {
+            profile: GapProfile::Tabulated {
+                gaps: vec![1e-4; 3],
+            },
+            direction: GapDirection::PerNode(vec![[1.0, 0.0, 0.0]]),
+        });
+        vec![a, b, c, d, e, f]
     }
 
     #[test]

@@ -11,6 +11,7 @@
 //!   ([`Structure::stability_limit`]) of both structures at every grid speed;
 //! - casing probes name contact nodes of the flexible casing.
 
+use crate::contact::{GapDirection, ImposedGap};
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::io::{model_cache, rom_file};
 use crate::model::rom::CyclicRom;
@@ -29,6 +30,8 @@ pub enum ResolvedCasing {
     Flexible(CyclicRom),
     /// A rigid casing as given in the spec (its surface is built per job, on the clearance).
     Rigid(RigidCasing),
+    /// A rigid casing of gaps imposed per blade-tip node.
+    ImposedGap(ImposedGap),
 }
 
 /// A sweep spec checked as a whole, with its models: what the simulator consumes.
@@ -89,6 +92,7 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
             .map(ResolvedCasing::Flexible)
             .map_err(|e| issue("/models/casing/rom", format!("{e:#}"))),
         CasingSource::Rigid(r) => Ok(ResolvedCasing::Rigid(r.clone())),
+        CasingSource::ImposedGap(g) => Ok(ResolvedCasing::ImposedGap(g.clone())),
     };
     let ((impeller, nominal_clearance), casing) = match (impeller, casing) {
         (Ok(i), Ok(c)) => (i, c),
@@ -100,6 +104,7 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
     };
     check_speeds_and_step(spec, &impeller, &casing, &mut issues);
     check_probes(spec, &casing, &mut issues);
+    check_gap_directions(&impeller, &casing, &mut issues);
     if issues.is_empty() {
         Ok(ResolvedSweep {
             spec: spec.clone(),
@@ -136,7 +141,7 @@ fn check_speeds_and_step(
                 return;
             }
         },
-        ResolvedCasing::Rigid(_) => None,
+        ResolvedCasing::Rigid(_) | ResolvedCasing::ImposedGap(_) => None,
     };
     let range = valid_speed_range(impeller);
     let h = spec.numerics.time_step;
@@ -212,6 +217,38 @@ fn check_probes(spec: &SweepSpec, casing: &ResolvedCasing, issues: &mut Vec<Spec
                      (0..{n}) of {m} contact nodes (0..{m})"
                 ),
             ));
+        }
+    }
+}
+
+/// An imposed-gap casing's per-node directions: one non-zero vector per impeller contact node.
+fn check_gap_directions(
+    impeller: &CyclicRom,
+    casing: &ResolvedCasing,
+    issues: &mut Vec<SpecIssue>,
+) {
+    let ResolvedCasing::ImposedGap(ImposedGap {
+        direction: GapDirection::PerNode(d),
+        ..
+    }) = casing
+    else {
+        return;
+    };
+    let path = "/models/casing/imposed_gap/direction/per_node";
+    if d.len() != impeller.n_contact() {
+        issues.push(issue(
+            path,
+            format!(
+                "{} directions for the impeller's {} contact nodes",
+                d.len(),
+                impeller.n_contact()
+            ),
+        ));
+    }
+    for (j, v) in d.iter().enumerate() {
+        let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !(n.is_finite() && n > 0.0) {
+            issues.push(issue(format!("{path}/{j}"), "not a finite non-zero vector"));
         }
     }
 }
