@@ -679,7 +679,8 @@ pub fn engine_order_crossings(
 
 /// The critical speed of `table` nearest to `omega` (rad/s), if any. Filter the table
 /// first (e.g. on `compatibility`) to ignore harmless coincidences.
-pub fn nearest_critical(table: &[CriticalSpeed], omega: f64) -> Option<&CriticalSpeed> {
+#[cfg(test)]
+pub(crate) fn nearest_critical(table: &[CriticalSpeed], omega: f64) -> Option<&CriticalSpeed> {
     table.iter().min_by(|a, b| {
         (a.omega_rad_s - omega)
             .abs()

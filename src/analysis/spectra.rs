@@ -84,7 +84,7 @@ impl Default for PeakOptions {
 }
 
 /// Minimum window length accepted.
-pub const MIN_SAMPLES: usize = 16;
+pub(crate) const MIN_SAMPLES: usize = 16;
 
 /// A reusable Hann-windowed real-FFT analyser for signals of a fixed length `n`.
 pub struct SpectrumAnalyzer {
@@ -112,7 +112,7 @@ impl SpectrumAnalyzer {
 
     /// Builds an analyser around an existing plan, so that parallel jobs share one plan
     /// (plans are `Send + Sync`).
-    pub fn with_plan(fft: Arc<dyn RealToComplex<f64>>) -> Result<Self, SpectrumError> {
+    pub(crate) fn with_plan(fft: Arc<dyn RealToComplex<f64>>) -> Result<Self, SpectrumError> {
         let n = fft.len();
         if n < MIN_SAMPLES {
             return Err(SpectrumError::TooShort {

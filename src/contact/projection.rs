@@ -23,7 +23,7 @@ pub const MAX_NEWTON_ITERATIONS: usize = 50;
 
 /// Relative threshold of [`friction_direction`]: below `NO_SLIP_REL_TOL · |Δ|`
 /// the tangential increment is treated as zero.
-pub const NO_SLIP_REL_TOL: f64 = 1e-9;
+pub(crate) const NO_SLIP_REL_TOL: f64 = 1e-9;
 
 /// Result of [`closest_point`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -343,7 +343,7 @@ impl GapBounds {
     }
 
     /// Lower bound (m) of node `k`'s gap at position `x` on the surface of the last call.
-    pub fn lower_bound(&self, k: usize, x: &Vector3<f64>) -> f64 {
+    pub(crate) fn lower_bound(&self, k: usize, x: &Vector3<f64>) -> f64 {
         self.gap[k] - (x - self.x[k]).norm() - (self.drift - self.drift_then[k])
     }
 
@@ -511,7 +511,11 @@ fn largest_move(isa: Isa, last: &mut [Vector3<f64>], now: &[Vector3<f64>]) -> f6
 /// Cold-start guess (paper §3.1): centre of the patch, among those touching the
 /// data point nearest to `x`, whose four corner data points are nearest to `x`.
 /// Costs `O(N·M)`; used only without a warm start.
-pub fn initial_guess(spline: &CasingSpline, q: &[Vector3<f64>], x: &Vector3<f64>) -> SurfaceParam {
+pub(crate) fn initial_guess(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    x: &Vector3<f64>,
+) -> SurfaceParam {
     let (n, m) = (spline.n_sectors(), spline.nodes_per_sector());
     let dist2 = |i: usize, j: usize| (data_point(spline, q, i % n, j) - x).norm_squared();
     let mut best = (f64::INFINITY, 0, 0);

@@ -463,7 +463,12 @@ impl CasingSpline {
     /// Dense per-node weights `w` (length `N·M`, node index `i·M + j`) with
     /// `S(p) = Σ_n w_n P_n`; see [`CasingSpline::node_weight_factors`], which is
     /// the allocation-free form for hot loops (this one allocates two small buffers).
-    pub fn node_weights(&self, p: &SurfaceParam, out: &mut [f64]) -> Result<(), SplineError> {
+    #[cfg(test)]
+    pub(crate) fn node_weights(
+        &self,
+        p: &SurfaceParam,
+        out: &mut [f64],
+    ) -> Result<(), SplineError> {
         check_len("node weights", self.n_nodes(), out.len())?;
         let mut wu = vec![0.0; self.n];
         let mut wv = vec![0.0; self.m];
@@ -545,7 +550,7 @@ impl CasingSpline {
     /// Interpolation matrix `A` of eqs. (8)–(9): `(N+1)M × (N+3)(M+2)`, dense,
     /// `P(i, j) = Σ_{a,b=0..2} w_a w_b Q[i+a][j+b] / 36` with `w = (1, 4, 1)`;
     /// rows `i·M + j`, `i = 0..N` (row block `N` is the repeated first column).
-    pub fn a_matrix(&self) -> Mat<f64> {
+    pub(crate) fn a_matrix(&self) -> Mat<f64> {
         let (n, m) = (self.n, self.m);
         let w = [1.0, 4.0, 1.0];
         Mat::from_fn((n + 1) * m, (n + 3) * (m + 2), |r, col| {
@@ -562,7 +567,7 @@ impl CasingSpline {
     /// Boundary-condition matrix `C` of eq. (4) derived from eqs. (10)–(11) (see
     /// the module doc): `(N+3)(M+2) × (N+1)M`, mapping the interior control
     /// points `Q[1..=N+1][1..=M]` (index `(c−1)·M + (k−1)`) to all control points.
-    pub fn c_matrix(&self) -> Mat<f64> {
+    pub(crate) fn c_matrix(&self) -> Mat<f64> {
         let (n, m) = (self.n, self.m);
         let cu = Mat::from_fn(n + 3, n + 1, |c, a| match c {
             0 => f64::from(a == 0) + f64::from(a == n - 1) - f64::from(a == n),

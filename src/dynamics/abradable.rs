@@ -138,13 +138,15 @@ impl CoatingMaterial {
 
     /// Elastoplastic tangent modulus `E K / (E + K)` (Pa): slope of stress vs total strain
     /// during plastic loading.
-    pub fn tangent_modulus(&self) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn tangent_modulus(&self) -> f64 {
         self.young * self.plastic_modulus / (self.young + self.plastic_modulus)
     }
 
     /// Incursion `δ = e_abr − d` (m) below the unworn coating surface of a node whose gap
     /// to the casing surface is `gap` (m, negative = penetration of the casing).
-    pub fn incursion_from_gap(&self, gap: f64) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn incursion_from_gap(&self, gap: f64) -> f64 {
         self.thickness - gap
     }
 
@@ -156,7 +158,7 @@ impl CoatingMaterial {
     /// tension (`σ* ≤ 0` → no force, state unchanged); yield check
     /// `f = σ* − (σ_Y + K ε_p)`; plastic corrector `Δε_p = f / (E + K)`,
     /// `σ = σ* − E Δε_p`.
-    pub fn return_map(&self, eps_p: f64, eps: f64) -> (f64, f64) {
+    pub(crate) fn return_map(&self, eps_p: f64, eps: f64) -> (f64, f64) {
         let sigma_trial = self.young * (eps - eps_p);
         if sigma_trial <= 0.0 {
             return (0.0, eps_p);
@@ -172,7 +174,7 @@ impl CoatingMaterial {
 
 /// Outcome of a trial evaluation: the element's state if the step is accepted.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ElementUpdate {
+pub(crate) struct ElementUpdate {
     /// Row of blade-tip nodes.
     pub row: usize,
     /// Element index in `0..η`.
@@ -188,7 +190,7 @@ pub struct ElementUpdate {
 
 /// State of the whole coating: `n_rows × η` elements.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CoatingLayer {
+pub(crate) struct CoatingLayer {
     material: CoatingMaterial,
     eta: usize,
     n_rows: usize,
@@ -200,7 +202,7 @@ pub struct CoatingLayer {
 
 impl CoatingLayer {
     /// Default number of elements per row (paper §4.2.1 convergence study).
-    pub const DEFAULT_ETA: usize = 6000;
+    pub(crate) const DEFAULT_ETA: usize = 6000;
 
     /// A virgin coating with `eta` elements per row and the blade-tip area `tip_area[r]`
     /// (m²) attributed to the contact node of row `r` (`tip_area.len()` rows).
@@ -245,11 +247,6 @@ impl CoatingLayer {
         &self.material
     }
 
-    /// Number of elements per row η.
-    pub fn eta(&self) -> usize {
-        self.eta
-    }
-
     /// Number of rows.
     pub fn n_rows(&self) -> usize {
         self.n_rows
@@ -262,7 +259,7 @@ impl CoatingLayer {
 
     /// Index of the element containing the circumferential coordinate `theta` (rad, any
     /// real value; wrapped to `[0, 2π)`): `floor(θ η / 2π)`.
-    pub fn element_index(&self, theta: f64) -> Result<usize, AbradableError> {
+    pub(crate) fn element_index(&self, theta: f64) -> Result<usize, AbradableError> {
         if !theta.is_finite() {
             return Err(AbradableError::NotFinite {
                 name: "theta",
@@ -286,7 +283,7 @@ impl CoatingLayer {
     }
 
     /// Committed plastic strain of element `element` of row `row`.
-    pub fn plastic_strain(&self, row: usize, element: usize) -> Result<f64, AbradableError> {
+    pub(crate) fn plastic_strain(&self, row: usize, element: usize) -> Result<f64, AbradableError> {
         self.check_row(row)?;
         if element >= self.eta {
             return Err(AbradableError::ElementOutOfRange {
@@ -300,7 +297,11 @@ impl CoatingLayer {
     /// Remaining coating thickness `e_abr (1 − ε_p)` (m) under angle `theta` in row `row`.
     /// The gap of a node to the worn coating surface is `d − remaining_thickness` (paper
     /// §4.1, `d^{*,abr}`).
-    pub fn remaining_thickness(&self, row: usize, theta: f64) -> Result<f64, AbradableError> {
+    pub(crate) fn remaining_thickness(
+        &self,
+        row: usize,
+        theta: f64,
+    ) -> Result<f64, AbradableError> {
         self.check_row(row)?;
         let e = self.element_index(theta)?;
         Ok(self.material.thickness * (1.0 - self.plastic_strain[row * self.eta + e]))
@@ -369,7 +370,7 @@ impl CoatingLayer {
 
     /// Wear profile of row `row` (m, removed depth `ε_p e_abr ∈ [0, e_abr]`), element `i`
     /// centred at angle `2π (i + ½)/η`.
-    pub fn wear_profile(&self, row: usize) -> Result<Vec<f64>, AbradableError> {
+    pub(crate) fn wear_profile(&self, row: usize) -> Result<Vec<f64>, AbradableError> {
         self.check_row(row)?;
         let e = self.material.thickness;
         Ok(self.plastic_strain[row * self.eta..(row + 1) * self.eta]

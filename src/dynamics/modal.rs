@@ -276,7 +276,11 @@ impl ModalKernel {
     /// Static boundary displacements `K(Ω)⁻¹ f` (m) of boundary forces `f` (N, sector-major),
     /// through the modal decomposition (`η_p = φ_pᵀ f / ω_p²`). Fails if a mode with zero
     /// frequency is loaded.
-    pub fn static_boundary(&mut self, forces: &[f64], out: &mut [f64]) -> Result<(), String> {
+    pub(crate) fn static_boundary(
+        &mut self,
+        forces: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
         self.tmp_eta.iter_mut().for_each(|x| *x = 0.0);
         self.add_response(forces, Which::Tmp);
         let h2 = self.half_h2;
@@ -302,7 +306,8 @@ impl ModalKernel {
     }
 
     /// Modal coordinates of step n (after `advance`), flat over nodal diameters.
-    pub fn modal_coordinates(&self) -> &[f64] {
+    #[cfg(test)]
+    pub(crate) fn modal_coordinates(&self) -> &[f64] {
         &self.eta
     }
 
@@ -560,7 +565,7 @@ impl ModalKernel {
     /// over sectors and acts per nodal diameter as one `3M × 3M` complex matrix `Ĥ_k`; the
     /// stored bases become `Ĥ_k Φ_b,k`. A step then costs what a contact-node step costs and
     /// the global spline solve disappears. Requires `3M` boundary DOFs per sector.
-    pub fn fold_spline(&mut self, spline: &CasingSpline) -> Result<(), String> {
+    pub(crate) fn fold_spline(&mut self, spline: &CasingSpline) -> Result<(), String> {
         let (ns, nb) = (self.ns, self.nb);
         let m = spline.nodes_per_sector();
         if spline.n_sectors() != ns || 3 * m != nb {

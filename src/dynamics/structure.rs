@@ -191,7 +191,7 @@ impl Structure {
     }
 
     /// Weight `w_k` of the orthonormal real DFT (ARCH brief).
-    pub fn dft_weight(&self, k: usize) -> f64 {
+    pub(crate) fn dft_weight(&self, k: usize) -> f64 {
         let n = self.n_sectors as f64;
         if self.blocks[k].real {
             n.powf(-0.5)
@@ -201,7 +201,7 @@ impl Structure {
     }
 
     /// Offset of nodal diameter `k`'s modal coordinates in the assembled physical DOF vector.
-    pub fn physical_modal_offset(&self, k: usize) -> usize {
+    pub(crate) fn physical_modal_offset(&self, k: usize) -> usize {
         self.n_sectors * self.n_boundary
             + self.blocks[..k]
                 .iter()
@@ -211,7 +211,7 @@ impl Structure {
 
     /// Orthogonal map `P` from the assembled physical DOF vector (ARCH ordering) to the
     /// concatenated harmonic real-form vectors `[x_0; x_1; …]` (offsets `NdBlock::offset`).
-    pub fn physical_to_harmonic(&self) -> DMatrix<f64> {
+    pub(crate) fn physical_to_harmonic(&self) -> DMatrix<f64> {
         let n = self.n_modal;
         let nb = self.n_boundary;
         let ns = self.n_sectors;
@@ -240,7 +240,7 @@ impl Structure {
 
     /// Assembled physical mass, stiffness K(Ω) and damping matrices (ARCH ordering),
     /// `Pᵀ blockdiag(·_k) P`.
-    pub fn assemble_physical(&self) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    pub(crate) fn assemble_physical(&self) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
         // P is sparse (a boundary harmonic row has N entries, a modal row one): form
         // Pᵀ X P row by row instead of with dense products (O(N² n_b n) instead of O(n³)).
         let p = self.physical_to_harmonic();

@@ -20,7 +20,7 @@ use thiserror::Error;
 
 /// Borrowed topology of one cyclic sector: what cyclic symmetry needs from a sector mesh.
 #[derive(Clone, Copy, Debug)]
-pub struct SectorTopology<'a> {
+pub(crate) struct SectorTopology<'a> {
     /// Number of sectors N of the full structure (1 for a non-cyclic component).
     pub n_sectors: usize,
     /// Number of nodes of the sector model (the sector has `3·n_nodes` DOFs).
@@ -75,7 +75,7 @@ enum NodeRole {
 
 /// Map from the sector DOFs to the independent DOFs of the cyclic problem.
 #[derive(Clone, Debug)]
-pub struct CyclicDofMap {
+pub(crate) struct CyclicDofMap {
     n_sectors: usize,
     roles: Vec<NodeRole>,
     n_independent: usize,
@@ -90,7 +90,7 @@ pub fn rot_z(angle: f64) -> Matrix3<f64> {
 }
 
 /// The inter-sector phase `e^{ikα}` with `α = 2π/N`, exactly ±1 for the real harmonics.
-pub fn cyclic_phase(k: usize, n_sectors: usize) -> c64 {
+pub(crate) fn cyclic_phase(k: usize, n_sectors: usize) -> c64 {
     if k == 0 {
         c64::new(1.0, 0.0)
     } else if 2 * k == n_sectors {
@@ -210,17 +210,17 @@ impl CyclicDofMap {
     }
 
     /// Number of independent DOFs of the harmonic problem.
-    pub fn n_independent(&self) -> usize {
+    pub(crate) fn n_independent(&self) -> usize {
         self.n_independent
     }
 
     /// Number of DOFs of the whole sector (`3·n_nodes`).
-    pub fn n_sector_dofs(&self) -> usize {
+    pub(crate) fn n_sector_dofs(&self) -> usize {
         3 * self.roles.len()
     }
 
     /// Number of independent DOFs of the `first` nodes given at construction.
-    pub fn n_first(&self) -> usize {
+    pub(crate) fn n_first(&self) -> usize {
         self.n_first
     }
 
@@ -269,7 +269,7 @@ impl CyclicDofMap {
 
     /// Triplets of the harmonic-`k` matrix `Tᴴ A T` (duplicates to be summed) over the
     /// independent DOFs, for a real symmetric sector matrix `a` in full storage.
-    pub fn harmonic_triplets(
+    pub(crate) fn harmonic_triplets(
         &self,
         a: &SparseColMat<usize, f64>,
         k: usize,
@@ -300,7 +300,8 @@ impl CyclicDofMap {
     }
 
     /// The complex Hermitian harmonic-`k` matrix `Tᴴ A T` over the independent DOFs.
-    pub fn harmonic_matrix(
+    #[cfg(test)]
+    pub(crate) fn harmonic_matrix(
         &self,
         a: &SparseColMat<usize, f64>,
         k: usize,
@@ -315,7 +316,8 @@ impl CyclicDofMap {
     /// checks): the sector is replicated N times, the right face of sector `s` merged with the
     /// left face of sector `s+1`. Global DOF `s·n_independent + j` is independent DOF `j` of
     /// sector `s`, in sector `s`'s local frame. Clamped DOFs are eliminated.
-    pub fn assemble_full(
+    #[cfg(test)]
+    pub(crate) fn assemble_full(
         &self,
         a: &SparseColMat<usize, f64>,
     ) -> Result<SparseColMat<usize, f64>, CyclicError> {

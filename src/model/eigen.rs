@@ -30,7 +30,7 @@ pub enum EigenError {
 /// All eigenpairs of `K x = λ M x` (complex Hermitian blocks). With `real`, the imaginary parts
 /// are ignored and the eigenvectors are real (a complex solver would return them with arbitrary
 /// phases).
-pub fn dense_gen_eigen(
+pub(crate) fn dense_gen_eigen(
     k: MatRef<'_, c64>,
     m: MatRef<'_, c64>,
     real: bool,

@@ -8,7 +8,7 @@ pub mod component;
 pub mod cyclic;
 pub mod eigen;
 pub mod fe;
-pub mod hex20;
+pub(crate) mod hex20;
 pub mod mesh;
 pub mod reduction;
 pub mod rom;

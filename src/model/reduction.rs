@@ -36,7 +36,7 @@ use thiserror::Error;
 
 /// Options of the cyclic Craig–Bampton reduction.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ReductionOptions {
+pub(crate) struct ReductionOptions {
     /// Fixed-interface modes kept per nodal diameter `n_m` (paper: 10). Capped by the number of
     /// interior DOFs.
     pub modes_per_diameter: usize,
@@ -113,7 +113,7 @@ pub enum ReductionError {
 
 /// Borrowed view of a sector FE model: the input of the reduction, independent of the mesher.
 #[derive(Clone, Copy, Debug)]
-pub struct SectorModel<'a> {
+pub(crate) struct SectorModel<'a> {
     /// Cyclic topology (N, faces, clamps).
     pub topology: SectorTopology<'a>,
     /// Node coordinates (m), global frame of sector 0.
@@ -130,7 +130,7 @@ pub struct SectorModel<'a> {
 
 /// Result of the reduction of one nodal diameter.
 #[derive(Clone, Debug)]
-pub struct HarmonicReduction {
+pub(crate) struct HarmonicReduction {
     /// Reduced matrices.
     pub block: HarmonicBlock,
     /// Free-vibration data of the reduced model over the Ω grid.
@@ -141,7 +141,7 @@ pub struct HarmonicReduction {
 
 /// Reduces a built-in sector mesh and its assembled matrices to a [`CyclicRom`]
 /// (cyclic Craig–Bampton, DESIGN §2.2); see [`reduce_sector_model`].
-pub fn reduce_cyclic(
+pub(crate) fn reduce_cyclic(
     mesh: &SectorMesh,
     mats: &SectorMatrices,
     opts: &ReductionOptions,
@@ -164,7 +164,7 @@ pub fn reduce_cyclic(
 }
 
 /// Reduces a cyclic sector FE model to a [`CyclicRom`] by cyclic Craig–Bampton (DESIGN §2.2).
-pub fn reduce_sector_model(
+pub(crate) fn reduce_sector_model(
     model: &SectorModel<'_>,
     opts: &ReductionOptions,
 ) -> Result<CyclicRom, ReductionError> {
@@ -212,7 +212,7 @@ pub fn reduce_sector_model(
 /// The customary "half the highest kept" rule left 5 % errors on a hostile lattice sector, and
 /// on the built-in casing (10 modes per nodal diameter) a mode at 0.27 × f_top is off by 0.9 %
 /// while every mode below 0.25 × f_top is within 0.5 % (see the tests).
-pub fn accuracy_cutoff_hz(fixed_interface_hz: &[f64]) -> f64 {
+pub(crate) fn accuracy_cutoff_hz(fixed_interface_hz: &[f64]) -> f64 {
     fixed_interface_hz.last().copied().unwrap_or(0.0) * 0.25
 }
 
@@ -261,7 +261,8 @@ fn check_model(
 }
 
 /// Builds the DOF map with the contact nodes first, for [`reduce_harmonic`].
-pub fn boundary_first_map(
+#[cfg(test)]
+pub(crate) fn boundary_first_map(
     model: &SectorModel<'_>,
     opts: &ReductionOptions,
 ) -> Result<CyclicDofMap, ReductionError> {
@@ -269,7 +270,7 @@ pub fn boundary_first_map(
 }
 
 /// Cyclic Craig–Bampton reduction of nodal diameter `k` (`map` from [`boundary_first_map`]).
-pub fn reduce_harmonic(
+pub(crate) fn reduce_harmonic(
     model: &SectorModel<'_>,
     map: &CyclicDofMap,
     k: usize,
@@ -366,7 +367,7 @@ pub fn reduce_harmonic(
 
 /// Natural frequency (Hz) of an eigenvalue λ = ω² ((rad/s)²); negative for λ < 0, which flags
 /// a statically unstable (divergent) mode.
-pub fn signed_hz(lambda: f64) -> f64 {
+pub(crate) fn signed_hz(lambda: f64) -> f64 {
     lambda.signum() * lambda.abs().sqrt() / (2.0 * PI)
 }
 

@@ -116,7 +116,7 @@ pub struct JobResult {
 impl JobResult {
     /// Checks that every number is finite (JSON cannot store NaN/∞, and a non-finite
     /// aggregate means the simulation diverged). Returns the offending field.
-    pub fn check_finite(&self) -> Result<(), String> {
+    pub(crate) fn check_finite(&self) -> Result<(), String> {
         let m = &self.maxima;
         let scalars = [
             ("maxima.blade_le_radial_m", m.blade_le_radial_m),
