@@ -17,6 +17,8 @@
 //!
 //! Units are SI everywhere inside (m, kg, s, N, Pa, rad/s).
 
+#![warn(missing_docs)]
+
 pub mod analysis;
 pub mod app;
 pub mod contact;

@@ -63,7 +63,10 @@ impl Default for Projection {
 pub enum ProjectionError {
     /// The point to project has a NaN or infinite coordinate.
     #[error("point {x:?} to project is not finite")]
-    NonFinitePoint { x: [f64; 3] },
+    NonFinitePoint {
+        /// The point (m).
+        x: [f64; 3],
+    },
     /// ε_NR must be positive and finite.
     #[error("eps_nr = {0}: the Newton stop criterion must be positive and finite")]
     BadTolerance(f64),
@@ -75,15 +78,22 @@ pub enum ProjectionError {
     Spline(#[from] SplineError),
     /// `S_u` and `S_v` are parallel (or not finite): the surface is degenerate there.
     #[error("degenerate surface at {param:?}: S_u and S_v are parallel or not finite")]
-    DegenerateSurface { param: SurfaceParam },
+    DegenerateSurface {
+        /// Where on the surface.
+        param: SurfaceParam,
+    },
     /// Newton–Raphson did not reach ε_NR within [`MAX_NEWTON_ITERATIONS`].
     #[error(
         "Newton-Raphson did not converge in {iterations} iterations from point {x:?} (last update {last_step:e} patch lengths at {param:?})"
     )]
     NotConverged {
+        /// The point being projected (m).
         x: [f64; 3],
+        /// Newton iterations done.
         iterations: usize,
+        /// Size of the last `(u, v)` update, in patch lengths.
         last_step: f64,
+        /// The last iterate.
         param: SurfaceParam,
     },
 }
@@ -92,7 +102,9 @@ pub enum ProjectionError {
 #[derive(Debug, Error, Clone, PartialEq)]
 #[error("closest point of node {node}: {source}")]
 pub struct NodeProjectionError {
+    /// Index of the node in the slice given to [`project_nodes`].
     pub node: usize,
+    /// Why its projection failed.
     #[source]
     pub source: ProjectionError,
 }

@@ -64,16 +64,23 @@ pub enum SplineError {
     /// A slice has the wrong length.
     #[error("{what}: expected length {expected}, got {got}")]
     LengthMismatch {
+        /// Which slice.
         what: &'static str,
+        /// Length required.
         expected: usize,
+        /// Length given.
         got: usize,
     },
     /// A patch index lies outside `0..N` × `0..M−1`.
     #[error("patch ({i}, {j}) outside 0..{n} x 0..{m1}")]
     PatchOutOfRange {
+        /// Circumferential patch index given.
         i: usize,
+        /// Meridional patch index given.
         j: usize,
+        /// Number of circumferential patches N.
         n: usize,
+        /// Number of meridional patches M − 1.
         m1: usize,
     },
     /// The surface normal cannot be oriented toward the axis from these nodes.
@@ -97,11 +104,17 @@ pub struct SurfaceParam {
 /// Position and derivatives of a patch at one `(u, v)` (eq. 6), in m (derivatives per unit `u`, `v`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatchEval {
+    /// Surface point `S(u, v)` (m).
     pub s: Vector3<f64>,
+    /// First derivative `∂S/∂u` (m).
     pub su: Vector3<f64>,
+    /// First derivative `∂S/∂v` (m).
     pub sv: Vector3<f64>,
+    /// Second derivative `∂²S/∂u²` (m).
     pub suu: Vector3<f64>,
+    /// Mixed derivative `∂²S/∂u∂v` (m).
     pub suv: Vector3<f64>,
+    /// Second derivative `∂²S/∂v²` (m).
     pub svv: Vector3<f64>,
 }
 

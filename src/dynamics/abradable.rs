@@ -44,22 +44,52 @@ use thiserror::Error;
 pub enum AbradableError {
     /// A material parameter is not a positive finite number.
     #[error("coating parameter `{name}` must be positive and finite (got {value})")]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// Name of the parameter.
+        name: &'static str,
+        /// The rejected value (in the parameter's SI unit).
+        value: f64,
+    },
     /// A layer dimension is zero.
     #[error("coating layer `{name}` must be at least 1 (got {value})")]
-    ZeroCount { name: &'static str, value: usize },
+    ZeroCount {
+        /// Name of the dimension.
+        name: &'static str,
+        /// The rejected value.
+        value: usize,
+    },
     /// The number of per-row tip areas differs from the number of rows.
     #[error("`tip_area` has {got} entries but the layer has {rows} rows")]
-    AreaCount { got: usize, rows: usize },
+    AreaCount {
+        /// Number of tip areas given.
+        got: usize,
+        /// Number of rows of the layer.
+        rows: usize,
+    },
     /// A row index outside the layer.
     #[error("row {row} is out of range (layer has {rows} rows)")]
-    RowOutOfRange { row: usize, rows: usize },
+    RowOutOfRange {
+        /// The row asked for.
+        row: usize,
+        /// Number of rows of the layer.
+        rows: usize,
+    },
     /// An element index outside the layer.
     #[error("element {element} is out of range (layer has {eta} elements per row)")]
-    ElementOutOfRange { element: usize, eta: usize },
+    ElementOutOfRange {
+        /// The element asked for.
+        element: usize,
+        /// Number of elements per row η.
+        eta: usize,
+    },
     /// A non-finite angle or incursion.
     #[error("`{name}` must be finite (got {value})")]
-    NotFinite { name: &'static str, value: f64 },
+    NotFinite {
+        /// Name of the quantity (`theta` in rad, `incursion` in m).
+        name: &'static str,
+        /// The rejected value.
+        value: f64,
+    },
 }
 
 /// Mechanical properties of the abradable coating (1D elastoplastic law, linear

@@ -15,7 +15,9 @@ use crate::contact::CasingSpline;
 /// `T = ½ v̄ᵀ M v̄`, `v̄ = (u_n − u_{n−1})/h`, and `V = ½ u_nᵀ K u_{n−1}`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Energies {
+    /// Kinetic energy `T = ½ v̄ᵀ M v̄` (J).
     pub kinetic: f64,
+    /// Strain energy `V = ½ u_nᵀ K u_{n−1}` (J).
     pub strain: f64,
 }
 

@@ -36,28 +36,65 @@ pub(crate) struct SectorTopology<'a> {
 /// Inconsistent sector topology; every variant names the offending data.
 #[derive(Debug, Error, PartialEq)]
 pub enum CyclicError {
+    /// The sector count N is zero.
     #[error("n_sectors must be at least 1")]
     NoSectors,
+    /// The two cyclic faces have different node counts.
     #[error("left_nodes has {left} entries but right_nodes has {right}")]
-    FaceLengthMismatch { left: usize, right: usize },
+    FaceLengthMismatch {
+        /// Number of left-face nodes.
+        left: usize,
+        /// Number of right-face nodes.
+        right: usize,
+    },
+    /// A face, clamped or first-ordered node index is not a node of the sector.
     #[error("{what} node index {node} is out of range (the sector has {n_nodes} nodes)")]
     NodeOutOfRange {
+        /// Which list holds the index.
         what: &'static str,
+        /// The index.
         node: usize,
+        /// Number of nodes of the sector.
         n_nodes: usize,
     },
+    /// A node appears twice on the cyclic faces (e.g. a node on the axis).
     #[error(
         "node {node} is listed more than once on the cyclic faces (axis nodes and repeated face nodes are not supported)"
     )]
-    RepeatedFaceNode { node: usize },
+    RepeatedFaceNode {
+        /// The repeated node.
+        node: usize,
+    },
+    /// A one-sector model was given cyclic faces.
     #[error("a one-sector (non-cyclic) model must have empty left/right faces")]
     FacesOnSingleSector,
+    /// The node that must carry the first independent DOFs is slaved or clamped.
     #[error("first-ordered node {node} is {reason}; it cannot be an independent DOF")]
-    DependentFirstNode { node: usize, reason: &'static str },
+    DependentFirstNode {
+        /// The node.
+        node: usize,
+        /// Why it is not independent (right-face or clamped).
+        reason: &'static str,
+    },
+    /// A nodal diameter above N/2.
     #[error("nodal diameter {k} exceeds N/2 = {max}")]
-    NodalDiameter { k: usize, max: usize },
+    NodalDiameter {
+        /// The nodal diameter asked for.
+        k: usize,
+        /// The largest one, ⌊N/2⌋.
+        max: usize,
+    },
+    /// A sector matrix whose size is not `3 n_nodes` square.
     #[error("matrix is {rows}×{cols}, expected {n}×{n} (3 DOFs per node)")]
-    MatrixShape { rows: usize, cols: usize, n: usize },
+    MatrixShape {
+        /// Rows of the matrix.
+        rows: usize,
+        /// Columns of the matrix.
+        cols: usize,
+        /// Expected order, `3 n_nodes`.
+        n: usize,
+    },
+    /// The sparse backend refused to build a harmonic matrix (message from faer).
     #[error("could not build sparse matrix: {0}")]
     Sparse(String),
 }

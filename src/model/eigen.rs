@@ -24,7 +24,12 @@ pub enum EigenError {
     /// Eigenvectors of a double eigenvalue of a complex block's real form that do not pair
     /// into the two phases `(x, J x)` of one complex mode.
     #[error("eigenvectors {start}..{end} of the real form do not pair into J-partners")]
-    NotPaired { start: usize, end: usize },
+    NotPaired {
+        /// First index of the cluster of equal eigenvalues.
+        start: usize,
+        /// One past its last index.
+        end: usize,
+    },
 }
 
 /// All eigenpairs of `K x = λ M x` (complex Hermitian blocks). With `real`, the imaginary parts

@@ -29,10 +29,14 @@ pub enum FeError {
     /// An element is inverted or degenerate at a Gauss point.
     #[error("element {element}: Jacobian determinant {det:e} <= 0 at Gauss point {point}")]
     BadJacobian {
+        /// Element index in the mesh.
         element: usize,
+        /// Gauss point index, `0..27`.
         point: usize,
+        /// Jacobian determinant there (m³ per unit natural volume).
         det: f64,
     },
+
     /// The centrifugal static problem cannot be solved.
     #[error("centrifugal prestress: {0}")]
     Prestress(String),

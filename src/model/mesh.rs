@@ -15,7 +15,13 @@ use thiserror::Error;
 pub enum MeshError {
     /// A geometric or material parameter is out of its admissible range.
     #[error("invalid parameter `{field}`: {reason}")]
-    InvalidParameter { field: &'static str, reason: String },
+    InvalidParameter {
+        /// Name of the parameter.
+        field: &'static str,
+        /// Why its value is rejected.
+        reason: String,
+    },
+
     /// The mesh topology or the cyclic face pairing is inconsistent.
     #[error("invalid mesh: {0}")]
     InvalidMesh(String),

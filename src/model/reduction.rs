@@ -70,43 +70,84 @@ impl Default for ReductionOptions {
 /// A reduction that could not be carried out; every variant names the cause.
 #[derive(Debug, Error)]
 pub enum ReductionError {
+    /// The sector's cyclic topology is inconsistent.
     #[error("cyclic sector: {0}")]
     Cyclic(#[from] CyclicError),
+    /// No contact nodes: the Craig–Bampton boundary would be empty.
     #[error("the sector has no contact nodes: the Craig–Bampton boundary would be empty")]
     NoContactNodes,
+    /// `modes_per_diameter` is zero.
     #[error("modes_per_diameter must be at least 1")]
     NoModes,
+    /// A speed of the Ω grid is negative or not finite.
     #[error("omega_grid entry {value} is not a finite non-negative speed (rad/s)")]
-    BadOmega { value: f64 },
+    BadOmega {
+        /// The rejected speed (rad/s).
+        value: f64,
+    },
+    /// The node list and the matrices disagree on the number of DOFs.
     #[error("nodes has {found} entries but the matrices have {dofs} DOFs (3 per node)")]
-    NodeCount { found: usize, dofs: usize },
+    NodeCount {
+        /// Number of nodes given.
+        found: usize,
+        /// Order of the matrices.
+        dofs: usize,
+    },
+    /// A sector matrix is not square of the model's order.
     #[error("{what} matrix is {rows}×{cols}, expected {n}×{n}")]
     MatrixShape {
+        /// `"stiffness"`, `"mass"` or `"centrifugal"`.
         what: &'static str,
+        /// Rows of the matrix.
         rows: usize,
+        /// Columns of the matrix.
         cols: usize,
+        /// Expected order, 3 per node.
         n: usize,
     },
+    /// The interior stiffness `K_II` cannot be Cholesky-factorised: the contact nodes and
+    /// clamps leave a rigid-body motion of the interior free.
     #[error(
         "nodal diameter {k}: interior stiffness K_II is not positive definite (the contact nodes and clamps do not suppress every rigid-body motion of the interior?): {detail}"
     )]
-    InteriorNotDefinite { k: usize, detail: String },
-    #[error("nodal diameter {k}: {what} is not positive definite: {detail}")]
-    NotDefinite {
+    InteriorNotDefinite {
+        /// Nodal diameter.
         k: usize,
-        what: &'static str,
+        /// The factorisation's message.
         detail: String,
     },
+    /// A reduced matrix is not positive definite (not constructed by the current reduction;
+    /// kept for callers that match on it).
+    #[error("nodal diameter {k}: {what} is not positive definite: {detail}")]
+    NotDefinite {
+        /// Nodal diameter.
+        k: usize,
+        /// Which matrix.
+        what: &'static str,
+        /// The factorisation's message.
+        detail: String,
+    },
+    /// The dense generalized eigensolver of the fixed-interface problem failed.
     #[error("nodal diameter {k}: eigensolver failed: {source}")]
-    Eigen { k: usize, source: EigenError },
+    Eigen {
+        /// Nodal diameter.
+        k: usize,
+        /// The eigensolver's error.
+        source: EigenError,
+    },
+    /// The shift-invert subspace iteration for the fixed-interface modes did not converge.
     #[error(
         "nodal diameter {k}: subspace iteration did not converge in {iterations} iterations (relative residual {residual:.2e})"
     )]
     NoConvergence {
+        /// Nodal diameter.
         k: usize,
+        /// Iterations done.
         iterations: usize,
+        /// Largest relative residual `‖K φ − λ M φ‖ / ‖K φ‖` of the kept modes.
         residual: f64,
     },
+    /// The reduced model fails the ROM's own validation.
     #[error("reduced model is invalid: {0}")]
     Rom(#[from] RomError),
 }
