@@ -101,7 +101,7 @@ impl Default for PeakOptions {
 }
 
 /// Minimum window length accepted.
-pub(crate) const MIN_SAMPLES: usize = 16;
+pub const MIN_SAMPLES: usize = 16;
 
 /// A reusable Hann-windowed real-FFT analyser for signals of a fixed length `n`.
 pub struct SpectrumAnalyzer {

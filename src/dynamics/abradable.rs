@@ -32,7 +32,7 @@
 //!   on the casing surface; to attach elements to the deforming spline (paper Fig. 10) it
 //!   may pass `2π u / N` with `u` the spline's circumferential parameter.
 //! - Full removal (paper §4.1, hybrid scenario §4.2.2): when a node reaches the casing
-//!   itself the caller sets the element fully worn with [`CoatingLayer::remove`] and
+//!   itself the caller sets the element fully worn with `CoatingLayer::remove` and
 //!   quarantines the node for the step (quarantine bookkeeping is the caller's).
 
 use serde::{Deserialize, Serialize};
@@ -168,15 +168,13 @@ impl CoatingMaterial {
 
     /// Elastoplastic tangent modulus `E K / (E + K)` (Pa): slope of stress vs total strain
     /// during plastic loading.
-    #[cfg(test)]
-    pub(crate) fn tangent_modulus(&self) -> f64 {
+    pub fn tangent_modulus(&self) -> f64 {
         self.young * self.plastic_modulus / (self.young + self.plastic_modulus)
     }
 
     /// Incursion `δ = e_abr − d` (m) below the unworn coating surface of a node whose gap
     /// to the casing surface is `gap` (m, negative = penetration of the casing).
-    #[cfg(test)]
-    pub(crate) fn incursion_from_gap(&self, gap: f64) -> f64 {
+    pub fn incursion_from_gap(&self, gap: f64) -> f64 {
         self.thickness - gap
     }
 

@@ -68,7 +68,7 @@ pub trait StructureKernel {
     fn is_finite(&self) -> bool;
     /// Makes the per-step channels ([`StructureKernel::boundary`], `correct`, `response`) the
     /// control points of `spline` instead of the contact nodes, when the kernel can (see
-    /// [`crate::dynamics::modal::ModalKernel::fold_spline`]); `Ok(false)`: it keeps the nodes.
+    /// `ModalKernel::fold_spline`); `Ok(false)`: it keeps the nodes.
     fn map_to_surface(&mut self, spline: &CasingSpline) -> Result<bool, String> {
         let _ = spline;
         Ok(false)

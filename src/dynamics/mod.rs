@@ -7,7 +7,7 @@
 //! - [`kernel`]: the two interchangeable linear-algebra kernels ([`modal`] fast, [`dense`] reference);
 //! - [`contact_solve`]: contact rows, `W = G A⁻¹ Fᵀ`, active-set solve;
 //! - [`scenario`]: the case definition (speed, friction, casing load, clearances);
-//! - [`simulate`]: the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
+//! - [`simulate`](mod@simulate): the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
 //!   [`recorder`]: what a sample step hands out and who keeps it; [`probes`]: the run's output;
 //! - [`abradable`]: the abradable coating's elastoplastic elements;
 

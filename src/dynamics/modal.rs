@@ -13,7 +13,7 @@
 //!   so its eigenvectors are stored as J-pairs and only one vector per pair is kept
 //!   (`paired_modes`): the casing bases (51 harmonics × 32 padded rows × 25 columns) take
 //!   326 KB instead of 612 KB, i.e. they fit in L2.
-//! - **Spline folded in** ([`ModalKernel::fold_spline`], casing only): the channels are the
+//! - **Spline folded in** (`ModalKernel::fold_spline`, casing only): the channels are the
 //!   spline's control points (eq. 13 per nodal diameter), so no spline solve per step.
 //! - **One pass per contact step.** [`StructureKernel::correct_then_predict`] does, per nodal
 //!   diameter while its basis is in L1: `Δη_k = diag(1/a) Φ_b,kᵀ F_k`, `ΔU_k = Φ_b,k Δη_k`

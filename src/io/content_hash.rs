@@ -5,7 +5,7 @@
 
 use serde_json::Value;
 
-/// Content hash of a JSON document: 16 lowercase hex digits of [`fnv1a64`] over
+/// Content hash of a JSON document: 16 lowercase hex digits of `fnv1a64` over
 /// [`canonical_json`], so key order does not matter.
 pub fn content_hash(v: &Value) -> String {
     format!("{:016x}", fnv1a64(canonical_json(v).as_bytes()))

@@ -48,13 +48,13 @@ pub struct Material {
 
 impl Material {
     /// Titanium alloy Ti-6Al-4V (annealed): E = 113.8 GPa, ν = 0.342, ρ = 4430 kg/m³.
-    pub(crate) const TI6AL4V: Material = Material {
+    pub const TI6AL4V: Material = Material {
         young: 113.8e9,
         poisson: 0.342,
         density: 4430.0,
     };
     /// Structural steel: E = 200 GPa, ν = 0.30, ρ = 7850 kg/m³.
-    pub(crate) const STEEL: Material = Material {
+    pub const STEEL: Material = Material {
         young: 200.0e9,
         poisson: 0.30,
         density: 7850.0,

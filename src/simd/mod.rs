@@ -43,10 +43,10 @@ use std::sync::OnceLock;
 
 /// Whether the portable path fuses its multiply-adds: true when `f64::mul_add` is one
 /// instruction of the compilation target (x86-64 built with the `fma` feature, aarch64).
-pub(crate) const FUSED: bool = cfg!(any(target_feature = "fma", target_arch = "aarch64"));
+pub const FUSED: bool = cfg!(any(target_feature = "fma", target_arch = "aarch64"));
 
 /// The environment variable that forces the portable path: `RUBSCAN_SIMD=portable`.
-pub(crate) const ENV_VAR: &str = "RUBSCAN_SIMD";
+pub const ENV_VAR: &str = "RUBSCAN_SIMD";
 
 /// An instruction-set choice for the SIMD kernels (see the module doc). A value naming
 /// explicit SIMD exists only on a CPU that has it.
@@ -65,7 +65,7 @@ impl Isa {
     pub const PORTABLE: Isa = Isa(Level::Portable);
 
     /// AVX2 and FMA, if this CPU has both (detected once).
-    pub(crate) fn avx2_fma() -> Option<Isa> {
+    pub fn avx2_fma() -> Option<Isa> {
         #[cfg(target_arch = "x86_64")]
         {
             static HAS: OnceLock<bool> = OnceLock::new();

@@ -38,7 +38,7 @@ fn abs_max(m: &mut f64, values: &[f64]) {
 impl JobAggregator {
     /// Samples kept for the steady window's spectrum: 2¹⁷ (1 MiB), 0.13 s at the default
     /// 1 MHz sampling (h = 1e-7 s, decimation 10), a resolution of 7.6 Hz.
-    pub(crate) const DEFAULT_WINDOW_SAMPLES: usize = 1 << 17;
+    pub const DEFAULT_WINDOW_SAMPLES: usize = 1 << 17;
 
     /// An aggregator for a job at Ω = `omega` (rad/s) whose steady window starts at
     /// `window_start` (s); the window's spectrum uses at most its last `capacity` samples.

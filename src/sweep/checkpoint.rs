@@ -14,7 +14,7 @@ use super::JobResult;
 use super::planner::{Job, JobParams};
 
 /// Version of the job record format.
-pub(crate) const JOB_RECORD_VERSION: u32 = 1;
+pub const JOB_RECORD_VERSION: u32 = 1;
 
 /// Outcome of a job.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -94,7 +94,7 @@ fn schema_validator() -> &'static jsonschema::Validator {
 
 /// Checks a JSON value against the sweep schema; returns every violation with its path.
 /// Unknown fields are reported once each, with the closest valid name
-/// ([`unknown_fields`]) instead of the schema's generic message.
+/// (`unknown_fields`) instead of the schema's generic message.
 pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
     let mut issues = unknown_fields(value, schema_value());
     issues.extend(
