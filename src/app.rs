@@ -88,7 +88,7 @@ impl AppError {
 
 /// Loads a sweep spec file and validates it as a whole with its models ([`resolve`]), before
 /// anything runs or is written.
-pub fn load_resolved(spec_path: &Path) -> Result<ResolvedSweep, SpecError> {
+pub(crate) fn load_resolved(spec_path: &Path) -> Result<ResolvedSweep, SpecError> {
     resolve(&load_spec(spec_path)?)
 }
 
@@ -100,7 +100,7 @@ pub fn model_info(path: &Path) -> Result<String> {
 }
 
 /// Summary text of a ROM: sizes, then per nodal diameter the first natural frequencies (Hz).
-pub fn describe_rom(rom: &CyclicRom) -> String {
+pub(crate) fn describe_rom(rom: &CyclicRom) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "name: {} ({:?})", rom.name, rom.component);
     let _ = writeln!(
@@ -152,7 +152,7 @@ pub fn describe_rom(rom: &CyclicRom) -> String {
 }
 
 /// Reads a model spec file (JSON, unknown fields rejected); `None` gives the built-in defaults.
-pub fn read_model_spec(path: Option<&Path>) -> Result<ModelSpec> {
+pub(crate) fn read_model_spec(path: Option<&Path>) -> Result<ModelSpec> {
     let Some(path) = path else {
         return Ok(ModelSpec::default());
     };
@@ -191,7 +191,7 @@ pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
 
 /// Installs a Ctrl-C handler that sets `flag` (the sweep runner and the time loop poll it and
 /// stop cleanly, writing nothing half-done). Installing twice is harmless.
-pub fn cancel_on_ctrl_c(flag: Arc<AtomicBool>) {
+pub(crate) fn cancel_on_ctrl_c(flag: Arc<AtomicBool>) {
     let _ = ctrlc::set_handler(move || {
         eprintln!(
             "interrupt: finishing cleanly (jobs in flight are dropped and will re-run on resume)"

@@ -20,6 +20,7 @@ use std::f64::consts::PI;
 /// Parameters of a synthetic ROM.
 #[derive(Clone, Debug)]
 pub struct SyntheticSpec {
+    /// Impeller (rotating frame) or casing (fixed frame).
     pub component: Component,
     /// Number of sectors N (casing) or blades N_b (impeller).
     pub n_sectors: usize,
@@ -31,9 +32,11 @@ pub struct SyntheticSpec {
     pub boundary_mass: f64,
     /// Boundary spring scale (N/m).
     pub boundary_stiffness: f64,
-    /// Lowest / highest fixed-interface modal frequency at k = 0 (Hz).
+    /// Lowest fixed-interface modal frequency at k = 0 (Hz).
     pub f_low: f64,
+    /// Highest fixed-interface modal frequency at k = 0 (Hz).
     pub f_high: f64,
+
     /// Radius of the contact surface (m): casing nodes sit on it, blade tips inside it.
     pub radius: f64,
     /// Axial length of the contact line (m).

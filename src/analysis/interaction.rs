@@ -48,19 +48,28 @@ use thiserror::Error;
 pub enum InteractionError {
     /// A sector count of zero.
     #[error("`n_sectors` of the {which} must be at least 1")]
-    NoSectors { which: &'static str },
+    NoSectors {
+        /// Which structure: `"impeller"` or `"casing"`.
+        which: &'static str,
+    },
     /// The speed grid is empty, not finite, negative or not strictly increasing.
     #[error("{which} nodal diameter {k}: speed grid {reason}")]
     BadGrid {
+        /// Which structure: `"impeller"` or `"casing"`.
         which: &'static str,
+        /// Nodal diameter of the offending modal data.
         k: usize,
+        /// What is wrong with the grid.
         reason: &'static str,
     },
     /// Frequencies have the wrong number of rows or a non-finite / negative value.
     #[error("{which} nodal diameter {k}: frequencies {reason}")]
     BadFrequencies {
+        /// Which structure: `"impeller"` or `"casing"`.
         which: &'static str,
+        /// Nodal diameter of the offending modal data.
         k: usize,
+        /// What is wrong with the frequencies.
         reason: &'static str,
     },
     /// Mode shapes have the wrong size.
@@ -68,28 +77,45 @@ pub enum InteractionError {
         "{which} nodal diameter {k}: mode shape (grid {i}, mode {p}) has {got} entries, expected {expected}"
     )]
     ShapeLength {
+        /// Which structure: `"impeller"` or `"casing"`.
         which: &'static str,
+        /// Nodal diameter of the offending modal data.
         k: usize,
+        /// Index in the speed grid.
         i: usize,
+        /// Mode index within the nodal diameter.
         p: usize,
+        /// Number of entries found.
         got: usize,
+        /// Number of entries expected (3 per contact node).
         expected: usize,
     },
     /// Two contact nodes share a row, so the contact line is ambiguous.
     #[error("{which}: contact nodes {a} and {b} share row {row}")]
     DuplicateRow {
+        /// Which structure: `"impeller"` or `"casing"`.
         which: &'static str,
+        /// Index of the first contact node.
         a: usize,
+        /// Index of the second contact node.
         b: usize,
+        /// The row both claim.
         row: usize,
     },
     /// A non-finite contact node coordinate.
     #[error("{which}: contact node {index} has a non-finite coordinate")]
-    NodeNotFinite { which: &'static str, index: usize },
+    NodeNotFinite {
+        /// Which structure: `"impeller"` or `"casing"`.
+        which: &'static str,
+        /// Index of the contact node.
+        index: usize,
+    },
     /// An option out of range.
     #[error("option `{name}`: {reason}")]
     BadOption {
+        /// Name of the option.
         name: &'static str,
+        /// Why its value is rejected.
         reason: &'static str,
     },
 }
@@ -679,7 +705,8 @@ pub fn engine_order_crossings(
 
 /// The critical speed of `table` nearest to `omega` (rad/s), if any. Filter the table
 /// first (e.g. on `compatibility`) to ignore harmless coincidences.
-pub fn nearest_critical(table: &[CriticalSpeed], omega: f64) -> Option<&CriticalSpeed> {
+#[cfg(test)]
+pub(crate) fn nearest_critical(table: &[CriticalSpeed], omega: f64) -> Option<&CriticalSpeed> {
     table.iter().min_by(|a, b| {
         (a.omega_rad_s - omega)
             .abs()

@@ -30,20 +30,37 @@ use thiserror::Error;
 pub enum SpectrumError {
     /// Too few samples for a meaningful spectrum.
     #[error("signal window must have at least {min} samples (got {got})")]
-    TooShort { got: usize, min: usize },
+    TooShort {
+        /// Number of samples given.
+        got: usize,
+        /// Smallest number accepted.
+        min: usize,
+    },
     /// The signal length differs from the analyser's planned length.
     #[error("signal has {got} samples but the analyser was planned for {expected}")]
-    LengthMismatch { got: usize, expected: usize },
+    LengthMismatch {
+        /// Number of samples given.
+        got: usize,
+        /// Number of samples the analyser was planned for.
+        expected: usize,
+    },
     /// A parameter is not finite or out of range.
     #[error("`{name}` is invalid: {reason} (got {value})")]
     BadParameter {
+        /// Name of the parameter.
         name: &'static str,
+        /// Why the value is rejected.
         reason: &'static str,
+        /// The rejected value (in the parameter's unit).
         value: f64,
     },
     /// The signal contains NaN or infinity.
     #[error("signal sample {index} is not finite")]
-    NonFiniteSample { index: usize },
+    NonFiniteSample {
+        /// Index of the first non-finite sample.
+        index: usize,
+    },
+
     /// The FFT backend failed (buffer sizes; should not happen).
     #[error("FFT failed: {0}")]
     Fft(String),
@@ -112,7 +129,7 @@ impl SpectrumAnalyzer {
 
     /// Builds an analyser around an existing plan, so that parallel jobs share one plan
     /// (plans are `Send + Sync`).
-    pub fn with_plan(fft: Arc<dyn RealToComplex<f64>>) -> Result<Self, SpectrumError> {
+    pub(crate) fn with_plan(fft: Arc<dyn RealToComplex<f64>>) -> Result<Self, SpectrumError> {
         let n = fft.len();
         if n < MIN_SAMPLES {
             return Err(SpectrumError::TooShort {

@@ -23,7 +23,7 @@ pub const MAX_NEWTON_ITERATIONS: usize = 50;
 
 /// Relative threshold of [`friction_direction`]: below `NO_SLIP_REL_TOL · |Δ|`
 /// the tangential increment is treated as zero.
-pub const NO_SLIP_REL_TOL: f64 = 1e-9;
+pub(crate) const NO_SLIP_REL_TOL: f64 = 1e-9;
 
 /// Result of [`closest_point`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,7 +63,10 @@ impl Default for Projection {
 pub enum ProjectionError {
     /// The point to project has a NaN or infinite coordinate.
     #[error("point {x:?} to project is not finite")]
-    NonFinitePoint { x: [f64; 3] },
+    NonFinitePoint {
+        /// The point (m).
+        x: [f64; 3],
+    },
     /// ε_NR must be positive and finite.
     #[error("eps_nr = {0}: the Newton stop criterion must be positive and finite")]
     BadTolerance(f64),
@@ -75,15 +78,22 @@ pub enum ProjectionError {
     Spline(#[from] SplineError),
     /// `S_u` and `S_v` are parallel (or not finite): the surface is degenerate there.
     #[error("degenerate surface at {param:?}: S_u and S_v are parallel or not finite")]
-    DegenerateSurface { param: SurfaceParam },
+    DegenerateSurface {
+        /// Where on the surface.
+        param: SurfaceParam,
+    },
     /// Newton–Raphson did not reach ε_NR within [`MAX_NEWTON_ITERATIONS`].
     #[error(
         "Newton-Raphson did not converge in {iterations} iterations from point {x:?} (last update {last_step:e} patch lengths at {param:?})"
     )]
     NotConverged {
+        /// The point being projected (m).
         x: [f64; 3],
+        /// Newton iterations done.
         iterations: usize,
+        /// Size of the last `(u, v)` update, in patch lengths.
         last_step: f64,
+        /// The last iterate.
         param: SurfaceParam,
     },
 }
@@ -92,7 +102,9 @@ pub enum ProjectionError {
 #[derive(Debug, Error, Clone, PartialEq)]
 #[error("closest point of node {node}: {source}")]
 pub struct NodeProjectionError {
+    /// Index of the node in the slice given to [`project_nodes`].
     pub node: usize,
+    /// Why its projection failed.
     #[source]
     pub source: ProjectionError,
 }
@@ -343,7 +355,7 @@ impl GapBounds {
     }
 
     /// Lower bound (m) of node `k`'s gap at position `x` on the surface of the last call.
-    pub fn lower_bound(&self, k: usize, x: &Vector3<f64>) -> f64 {
+    pub(crate) fn lower_bound(&self, k: usize, x: &Vector3<f64>) -> f64 {
         self.gap[k] - (x - self.x[k]).norm() - (self.drift - self.drift_then[k])
     }
 
@@ -511,7 +523,11 @@ fn largest_move(isa: Isa, last: &mut [Vector3<f64>], now: &[Vector3<f64>]) -> f6
 /// Cold-start guess (paper §3.1): centre of the patch, among those touching the
 /// data point nearest to `x`, whose four corner data points are nearest to `x`.
 /// Costs `O(N·M)`; used only without a warm start.
-pub fn initial_guess(spline: &CasingSpline, q: &[Vector3<f64>], x: &Vector3<f64>) -> SurfaceParam {
+pub(crate) fn initial_guess(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    x: &Vector3<f64>,
+) -> SurfaceParam {
     let (n, m) = (spline.n_sectors(), spline.nodes_per_sector());
     let dist2 = |i: usize, j: usize| (data_point(spline, q, i % n, j) - x).norm_squared();
     let mut best = (f64::INFINITY, 0, 0);

@@ -64,16 +64,23 @@ pub enum SplineError {
     /// A slice has the wrong length.
     #[error("{what}: expected length {expected}, got {got}")]
     LengthMismatch {
+        /// Which slice.
         what: &'static str,
+        /// Length required.
         expected: usize,
+        /// Length given.
         got: usize,
     },
     /// A patch index lies outside `0..N` × `0..M−1`.
     #[error("patch ({i}, {j}) outside 0..{n} x 0..{m1}")]
     PatchOutOfRange {
+        /// Circumferential patch index given.
         i: usize,
+        /// Meridional patch index given.
         j: usize,
+        /// Number of circumferential patches N.
         n: usize,
+        /// Number of meridional patches M − 1.
         m1: usize,
     },
     /// The surface normal cannot be oriented toward the axis from these nodes.
@@ -97,11 +104,17 @@ pub struct SurfaceParam {
 /// Position and derivatives of a patch at one `(u, v)` (eq. 6), in m (derivatives per unit `u`, `v`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatchEval {
+    /// Surface point `S(u, v)` (m).
     pub s: Vector3<f64>,
+    /// First derivative `∂S/∂u` (m).
     pub su: Vector3<f64>,
+    /// First derivative `∂S/∂v` (m).
     pub sv: Vector3<f64>,
+    /// Second derivative `∂²S/∂u²` (m).
     pub suu: Vector3<f64>,
+    /// Mixed derivative `∂²S/∂u∂v` (m).
     pub suv: Vector3<f64>,
+    /// Second derivative `∂²S/∂v²` (m).
     pub svv: Vector3<f64>,
 }
 
@@ -463,7 +476,12 @@ impl CasingSpline {
     /// Dense per-node weights `w` (length `N·M`, node index `i·M + j`) with
     /// `S(p) = Σ_n w_n P_n`; see [`CasingSpline::node_weight_factors`], which is
     /// the allocation-free form for hot loops (this one allocates two small buffers).
-    pub fn node_weights(&self, p: &SurfaceParam, out: &mut [f64]) -> Result<(), SplineError> {
+    #[cfg(test)]
+    pub(crate) fn node_weights(
+        &self,
+        p: &SurfaceParam,
+        out: &mut [f64],
+    ) -> Result<(), SplineError> {
         check_len("node weights", self.n_nodes(), out.len())?;
         let mut wu = vec![0.0; self.n];
         let mut wv = vec![0.0; self.m];
@@ -545,7 +563,7 @@ impl CasingSpline {
     /// Interpolation matrix `A` of eqs. (8)–(9): `(N+1)M × (N+3)(M+2)`, dense,
     /// `P(i, j) = Σ_{a,b=0..2} w_a w_b Q[i+a][j+b] / 36` with `w = (1, 4, 1)`;
     /// rows `i·M + j`, `i = 0..N` (row block `N` is the repeated first column).
-    pub fn a_matrix(&self) -> Mat<f64> {
+    pub(crate) fn a_matrix(&self) -> Mat<f64> {
         let (n, m) = (self.n, self.m);
         let w = [1.0, 4.0, 1.0];
         Mat::from_fn((n + 1) * m, (n + 3) * (m + 2), |r, col| {
@@ -562,7 +580,7 @@ impl CasingSpline {
     /// Boundary-condition matrix `C` of eq. (4) derived from eqs. (10)–(11) (see
     /// the module doc): `(N+3)(M+2) × (N+1)M`, mapping the interior control
     /// points `Q[1..=N+1][1..=M]` (index `(c−1)·M + (k−1)`) to all control points.
-    pub fn c_matrix(&self) -> Mat<f64> {
+    pub(crate) fn c_matrix(&self) -> Mat<f64> {
         let (n, m) = (self.n, self.m);
         let cu = Mat::from_fn(n + 3, n + 1, |c, a| match c {
             0 => f64::from(a == 0) + f64::from(a == n - 1) - f64::from(a == n),

@@ -32,7 +32,7 @@
 //!   on the casing surface; to attach elements to the deforming spline (paper Fig. 10) it
 //!   may pass `2π u / N` with `u` the spline's circumferential parameter.
 //! - Full removal (paper §4.1, hybrid scenario §4.2.2): when a node reaches the casing
-//!   itself the caller sets the element fully worn with [`CoatingLayer::remove`] and
+//!   itself the caller sets the element fully worn with `CoatingLayer::remove` and
 //!   quarantines the node for the step (quarantine bookkeeping is the caller's).
 
 use serde::{Deserialize, Serialize};
@@ -44,22 +44,52 @@ use thiserror::Error;
 pub enum AbradableError {
     /// A material parameter is not a positive finite number.
     #[error("coating parameter `{name}` must be positive and finite (got {value})")]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// Name of the parameter.
+        name: &'static str,
+        /// The rejected value (in the parameter's SI unit).
+        value: f64,
+    },
     /// A layer dimension is zero.
     #[error("coating layer `{name}` must be at least 1 (got {value})")]
-    ZeroCount { name: &'static str, value: usize },
+    ZeroCount {
+        /// Name of the dimension.
+        name: &'static str,
+        /// The rejected value.
+        value: usize,
+    },
     /// The number of per-row tip areas differs from the number of rows.
     #[error("`tip_area` has {got} entries but the layer has {rows} rows")]
-    AreaCount { got: usize, rows: usize },
+    AreaCount {
+        /// Number of tip areas given.
+        got: usize,
+        /// Number of rows of the layer.
+        rows: usize,
+    },
     /// A row index outside the layer.
     #[error("row {row} is out of range (layer has {rows} rows)")]
-    RowOutOfRange { row: usize, rows: usize },
+    RowOutOfRange {
+        /// The row asked for.
+        row: usize,
+        /// Number of rows of the layer.
+        rows: usize,
+    },
     /// An element index outside the layer.
     #[error("element {element} is out of range (layer has {eta} elements per row)")]
-    ElementOutOfRange { element: usize, eta: usize },
+    ElementOutOfRange {
+        /// The element asked for.
+        element: usize,
+        /// Number of elements per row η.
+        eta: usize,
+    },
     /// A non-finite angle or incursion.
     #[error("`{name}` must be finite (got {value})")]
-    NotFinite { name: &'static str, value: f64 },
+    NotFinite {
+        /// Name of the quantity (`theta` in rad, `incursion` in m).
+        name: &'static str,
+        /// The rejected value.
+        value: f64,
+    },
 }
 
 /// Mechanical properties of the abradable coating (1D elastoplastic law, linear
@@ -156,7 +186,7 @@ impl CoatingMaterial {
     /// tension (`σ* ≤ 0` → no force, state unchanged); yield check
     /// `f = σ* − (σ_Y + K ε_p)`; plastic corrector `Δε_p = f / (E + K)`,
     /// `σ = σ* − E Δε_p`.
-    pub fn return_map(&self, eps_p: f64, eps: f64) -> (f64, f64) {
+    pub(crate) fn return_map(&self, eps_p: f64, eps: f64) -> (f64, f64) {
         let sigma_trial = self.young * (eps - eps_p);
         if sigma_trial <= 0.0 {
             return (0.0, eps_p);
@@ -172,7 +202,7 @@ impl CoatingMaterial {
 
 /// Outcome of a trial evaluation: the element's state if the step is accepted.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ElementUpdate {
+pub(crate) struct ElementUpdate {
     /// Row of blade-tip nodes.
     pub row: usize,
     /// Element index in `0..η`.
@@ -188,7 +218,7 @@ pub struct ElementUpdate {
 
 /// State of the whole coating: `n_rows × η` elements.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CoatingLayer {
+pub(crate) struct CoatingLayer {
     material: CoatingMaterial,
     eta: usize,
     n_rows: usize,
@@ -200,7 +230,7 @@ pub struct CoatingLayer {
 
 impl CoatingLayer {
     /// Default number of elements per row (paper §4.2.1 convergence study).
-    pub const DEFAULT_ETA: usize = 6000;
+    pub(crate) const DEFAULT_ETA: usize = 6000;
 
     /// A virgin coating with `eta` elements per row and the blade-tip area `tip_area[r]`
     /// (m²) attributed to the contact node of row `r` (`tip_area.len()` rows).
@@ -245,11 +275,6 @@ impl CoatingLayer {
         &self.material
     }
 
-    /// Number of elements per row η.
-    pub fn eta(&self) -> usize {
-        self.eta
-    }
-
     /// Number of rows.
     pub fn n_rows(&self) -> usize {
         self.n_rows
@@ -262,7 +287,7 @@ impl CoatingLayer {
 
     /// Index of the element containing the circumferential coordinate `theta` (rad, any
     /// real value; wrapped to `[0, 2π)`): `floor(θ η / 2π)`.
-    pub fn element_index(&self, theta: f64) -> Result<usize, AbradableError> {
+    pub(crate) fn element_index(&self, theta: f64) -> Result<usize, AbradableError> {
         if !theta.is_finite() {
             return Err(AbradableError::NotFinite {
                 name: "theta",
@@ -286,7 +311,7 @@ impl CoatingLayer {
     }
 
     /// Committed plastic strain of element `element` of row `row`.
-    pub fn plastic_strain(&self, row: usize, element: usize) -> Result<f64, AbradableError> {
+    pub(crate) fn plastic_strain(&self, row: usize, element: usize) -> Result<f64, AbradableError> {
         self.check_row(row)?;
         if element >= self.eta {
             return Err(AbradableError::ElementOutOfRange {
@@ -300,7 +325,11 @@ impl CoatingLayer {
     /// Remaining coating thickness `e_abr (1 − ε_p)` (m) under angle `theta` in row `row`.
     /// The gap of a node to the worn coating surface is `d − remaining_thickness` (paper
     /// §4.1, `d^{*,abr}`).
-    pub fn remaining_thickness(&self, row: usize, theta: f64) -> Result<f64, AbradableError> {
+    pub(crate) fn remaining_thickness(
+        &self,
+        row: usize,
+        theta: f64,
+    ) -> Result<f64, AbradableError> {
         self.check_row(row)?;
         let e = self.element_index(theta)?;
         Ok(self.material.thickness * (1.0 - self.plastic_strain[row * self.eta + e]))
@@ -369,7 +398,7 @@ impl CoatingLayer {
 
     /// Wear profile of row `row` (m, removed depth `ε_p e_abr ∈ [0, e_abr]`), element `i`
     /// centred at angle `2π (i + ½)/η`.
-    pub fn wear_profile(&self, row: usize) -> Result<Vec<f64>, AbradableError> {
+    pub(crate) fn wear_profile(&self, row: usize) -> Result<Vec<f64>, AbradableError> {
         self.check_row(row)?;
         let e = self.material.thickness;
         Ok(self.plastic_strain[row * self.eta..(row + 1) * self.eta]

@@ -10,7 +10,7 @@ use faer::{Accum, Mat, MatRef, Par};
 use nalgebra::DMatrix;
 
 /// Dense central-difference kernel of one structure.
-pub struct DenseKernel {
+pub(crate) struct DenseKernel {
     ns: usize,
     nb: usize,
     h: f64,
@@ -72,7 +72,7 @@ impl DenseKernel {
     }
 
     /// The boundary block of `A⁻¹` (the boundary flexibility), `N·3n_c` square.
-    pub fn boundary_flexibility(&self) -> MatRef<'_, f64> {
+    pub(crate) fn boundary_flexibility(&self) -> MatRef<'_, f64> {
         let nbt = self.ns * self.nb;
         self.ainv.as_ref().submatrix(0, 0, nbt, nbt)
     }

@@ -15,7 +15,9 @@ use crate::contact::CasingSpline;
 /// `T = ½ v̄ᵀ M v̄`, `v̄ = (u_n − u_{n−1})/h`, and `V = ½ u_nᵀ K u_{n−1}`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Energies {
+    /// Kinetic energy `T = ½ v̄ᵀ M v̄` (J).
     pub kinetic: f64,
+    /// Strain energy `V = ½ u_nᵀ K u_{n−1}` (J).
     pub strain: f64,
 }
 
@@ -66,7 +68,7 @@ pub trait StructureKernel {
     fn is_finite(&self) -> bool;
     /// Makes the per-step channels ([`StructureKernel::boundary`], `correct`, `response`) the
     /// control points of `spline` instead of the contact nodes, when the kernel can (see
-    /// [`crate::dynamics::modal::ModalKernel::fold_spline`]); `Ok(false)`: it keeps the nodes.
+    /// `ModalKernel::fold_spline`); `Ok(false)`: it keeps the nodes.
     fn map_to_surface(&mut self, spline: &CasingSpline) -> Result<bool, String> {
         let _ = spline;
         Ok(false)

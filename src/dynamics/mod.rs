@@ -7,11 +7,12 @@
 //! - [`kernel`]: the two interchangeable linear-algebra kernels ([`modal`] fast, [`dense`] reference);
 //! - [`contact_solve`]: contact rows, `W = G A⁻¹ Fᵀ`, active-set solve;
 //! - [`scenario`]: the case definition (speed, friction, casing load, clearances);
-//! - [`simulate`]: the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
+//! - [`simulate`](mod@simulate): the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
 //!   [`recorder`]: what a sample step hands out and who keeps it; [`probes`]: the run's output;
 //! - [`abradable`]: the abradable coating's elastoplastic elements;
 
 pub mod abradable;
+#[allow(missing_docs)] // documented after #23 lands
 pub mod contact_solve;
 pub mod dense;
 mod imposed_casing;
@@ -20,9 +21,13 @@ pub mod kernel;
 mod kernel_agreement;
 pub mod modal;
 pub mod numerics;
+#[allow(missing_docs)] // documented after #23 lands
 pub mod probes;
+#[allow(missing_docs)] // documented after #23 lands
 pub mod recorder;
+#[allow(missing_docs)] // documented after #23 lands
 pub mod scenario;
+#[allow(missing_docs)] // documented after #23 lands
 pub mod simulate;
 pub mod structure;
 

@@ -13,7 +13,7 @@
 //!   so its eigenvectors are stored as J-pairs and only one vector per pair is kept
 //!   (`paired_modes`): the casing bases (51 harmonics × 32 padded rows × 25 columns) take
 //!   326 KB instead of 612 KB, i.e. they fit in L2.
-//! - **Spline folded in** ([`ModalKernel::fold_spline`], casing only): the channels are the
+//! - **Spline folded in** (`ModalKernel::fold_spline`, casing only): the channels are the
 //!   spline's control points (eq. 13 per nodal diameter), so no spline solve per step.
 //! - **One pass per contact step.** [`StructureKernel::correct_then_predict`] does, per nodal
 //!   diameter while its basis is in L1: `Δη_k = diag(1/a) Φ_b,kᵀ F_k`, `ΔU_k = Φ_b,k Δη_k`
@@ -276,7 +276,11 @@ impl ModalKernel {
     /// Static boundary displacements `K(Ω)⁻¹ f` (m) of boundary forces `f` (N, sector-major),
     /// through the modal decomposition (`η_p = φ_pᵀ f / ω_p²`). Fails if a mode with zero
     /// frequency is loaded.
-    pub fn static_boundary(&mut self, forces: &[f64], out: &mut [f64]) -> Result<(), String> {
+    pub(crate) fn static_boundary(
+        &mut self,
+        forces: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
         self.tmp_eta.iter_mut().for_each(|x| *x = 0.0);
         self.add_response(forces, Which::Tmp);
         let h2 = self.half_h2;
@@ -302,7 +306,8 @@ impl ModalKernel {
     }
 
     /// Modal coordinates of step n (after `advance`), flat over nodal diameters.
-    pub fn modal_coordinates(&self) -> &[f64] {
+    #[cfg(test)]
+    pub(crate) fn modal_coordinates(&self) -> &[f64] {
         &self.eta
     }
 
@@ -560,7 +565,7 @@ impl ModalKernel {
     /// over sectors and acts per nodal diameter as one `3M × 3M` complex matrix `Ĥ_k`; the
     /// stored bases become `Ĥ_k Φ_b,k`. A step then costs what a contact-node step costs and
     /// the global spline solve disappears. Requires `3M` boundary DOFs per sector.
-    pub fn fold_spline(&mut self, spline: &CasingSpline) -> Result<(), String> {
+    pub(crate) fn fold_spline(&mut self, spline: &CasingSpline) -> Result<(), String> {
         let (ns, nb) = (self.ns, self.nb);
         let m = spline.nodes_per_sector();
         if spline.n_sectors() != ns || 3 * m != nb {

@@ -32,23 +32,40 @@ use thiserror::Error;
 /// Errors when freezing a ROM at a rotation speed.
 #[derive(Debug, Error, PartialEq)]
 pub enum StructureError {
+    /// The ROM fails its own validation.
     #[error("ROM `{name}` is invalid: {source}")]
-    Rom { name: String, source: RomError },
+    Rom {
+        /// Name of the ROM.
+        name: String,
+        /// What is wrong with it.
+        source: RomError,
+    },
+    /// The generalized eigenproblem of one nodal diameter could not be solved.
     #[error("ROM `{name}`, nodal diameter {k}: eigen-decomposition failed ({source})")]
     Eigen {
+        /// Name of the ROM.
         name: String,
+        /// Nodal diameter.
         k: usize,
+        /// The eigensolver's error.
         source: EigenError,
     },
+    /// `K(Ω) = K0 + Ω² K1 + Ω⁴ K2` has a negative eigenvalue: Ω is outside the range where
+    /// the linearised prestress model is valid.
     #[error(
         "ROM `{name}`, nodal diameter {k}: K(Ω = {omega} rad/s) is not positive semi-definite (eigenvalue {lambda:.4e} (rad/s)²)"
     )]
     Indefinite {
+        /// Name of the ROM.
         name: String,
+        /// Nodal diameter.
         k: usize,
+        /// Rotation speed Ω (rad/s).
         omega: f64,
+        /// The most negative eigenvalue ω² ((rad/s)²).
         lambda: f64,
     },
+    /// The rotation speed (rad/s) is NaN or infinite.
     #[error("rotation speed Ω = {0} rad/s must be finite")]
     BadOmega(f64),
 }
@@ -66,10 +83,14 @@ pub struct NdBlock {
     pub n_modes: usize,
     /// Real-form order, `n` or `2n`.
     pub dim: usize,
-    /// Real-form mass (kg), stiffness K(Ω) (N/m) and damping (N·s/m) matrices, `dim × dim`.
+    /// Real-form mass matrix (kg), `dim × dim`.
     pub mass: DMatrix<f64>,
+    /// Real-form stiffness matrix K(Ω) = K0 + Ω² K1 + Ω⁴ K2 (N/m), `dim × dim`.
     pub stiffness: DMatrix<f64>,
+    /// Real-form damping matrix (N·s/m), `dim × dim`, diagonalised by [`NdBlock::modes`]
+    /// (see the module doc, "Damping").
     pub damping: DMatrix<f64>,
+
     /// Mass-normalized eigenvectors (columns, `Φᵀ M Φ = I`), sorted by ascending frequency.
     pub modes: DMatrix<f64>,
     /// Natural circular frequencies ω_p (rad/s), ascending.
@@ -191,7 +212,7 @@ impl Structure {
     }
 
     /// Weight `w_k` of the orthonormal real DFT (ARCH brief).
-    pub fn dft_weight(&self, k: usize) -> f64 {
+    pub(crate) fn dft_weight(&self, k: usize) -> f64 {
         let n = self.n_sectors as f64;
         if self.blocks[k].real {
             n.powf(-0.5)
@@ -201,7 +222,7 @@ impl Structure {
     }
 
     /// Offset of nodal diameter `k`'s modal coordinates in the assembled physical DOF vector.
-    pub fn physical_modal_offset(&self, k: usize) -> usize {
+    pub(crate) fn physical_modal_offset(&self, k: usize) -> usize {
         self.n_sectors * self.n_boundary
             + self.blocks[..k]
                 .iter()
@@ -211,7 +232,7 @@ impl Structure {
 
     /// Orthogonal map `P` from the assembled physical DOF vector (ARCH ordering) to the
     /// concatenated harmonic real-form vectors `[x_0; x_1; …]` (offsets `NdBlock::offset`).
-    pub fn physical_to_harmonic(&self) -> DMatrix<f64> {
+    pub(crate) fn physical_to_harmonic(&self) -> DMatrix<f64> {
         let n = self.n_modal;
         let nb = self.n_boundary;
         let ns = self.n_sectors;
@@ -240,7 +261,7 @@ impl Structure {
 
     /// Assembled physical mass, stiffness K(Ω) and damping matrices (ARCH ordering),
     /// `Pᵀ blockdiag(·_k) P`.
-    pub fn assemble_physical(&self) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    pub(crate) fn assemble_physical(&self) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
         // P is sparse (a boundary harmonic row has N entries, a modal row one): form
         // Pᵀ X P row by row instead of with dense products (O(N² n_b n) instead of O(n³)).
         let p = self.physical_to_harmonic();

@@ -5,14 +5,14 @@
 
 use serde_json::Value;
 
-/// Content hash of a JSON document: 16 lowercase hex digits of [`fnv1a64`] over
+/// Content hash of a JSON document: 16 lowercase hex digits of `fnv1a64` over
 /// [`canonical_json`], so key order does not matter.
 pub fn content_hash(v: &Value) -> String {
     format!("{:016x}", fnv1a64(canonical_json(v).as_bytes()))
 }
 
 /// FNV-1a 64-bit hash of a byte string (offset basis 0xcbf29ce484222325, prime 0x100000001b3).
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a64(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for &b in bytes {
         h ^= u64::from(b);

@@ -12,21 +12,31 @@ use crate::model::rom::{Component, CyclicRom, Damping};
 /// Everything that can stop a model build; the message names the stage and the cause.
 #[derive(Debug, thiserror::Error)]
 pub enum BuildError {
+    /// The parametric geometry or its mesh is invalid.
     #[error("{component} geometry: {source}")]
     Mesh {
+        /// `"impeller"` or `"casing"`.
         component: &'static str,
+        /// The mesher's error.
         source: MeshError,
     },
+    /// The finite-element assembly (or the centrifugal prestress) failed.
     #[error("{component} finite elements: {source}")]
     Fe {
+        /// `"impeller"` or `"casing"`.
         component: &'static str,
+        /// The assembly's error.
         source: FeError,
     },
+    /// The cyclic Craig–Bampton reduction failed.
     #[error("{component} reduction: {source}")]
     Reduction {
+        /// `"impeller"` or `"casing"`.
         component: &'static str,
+        /// The reduction's error.
         source: ReductionError,
     },
+    /// The model spec itself is invalid (unknown field, wrong type); the message says where.
     #[error("{0}")]
     Invalid(String),
 }
@@ -84,7 +94,9 @@ impl Default for ImpellerSpec {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ModelSpec {
+    /// How to build the impeller ROM.
     pub impeller: ImpellerSpec,
+    /// How to build the casing ROM.
     pub casing: CasingSpec,
 }
 

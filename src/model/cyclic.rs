@@ -20,7 +20,7 @@ use thiserror::Error;
 
 /// Borrowed topology of one cyclic sector: what cyclic symmetry needs from a sector mesh.
 #[derive(Clone, Copy, Debug)]
-pub struct SectorTopology<'a> {
+pub(crate) struct SectorTopology<'a> {
     /// Number of sectors N of the full structure (1 for a non-cyclic component).
     pub n_sectors: usize,
     /// Number of nodes of the sector model (the sector has `3·n_nodes` DOFs).
@@ -36,28 +36,65 @@ pub struct SectorTopology<'a> {
 /// Inconsistent sector topology; every variant names the offending data.
 #[derive(Debug, Error, PartialEq)]
 pub enum CyclicError {
+    /// The sector count N is zero.
     #[error("n_sectors must be at least 1")]
     NoSectors,
+    /// The two cyclic faces have different node counts.
     #[error("left_nodes has {left} entries but right_nodes has {right}")]
-    FaceLengthMismatch { left: usize, right: usize },
+    FaceLengthMismatch {
+        /// Number of left-face nodes.
+        left: usize,
+        /// Number of right-face nodes.
+        right: usize,
+    },
+    /// A face, clamped or first-ordered node index is not a node of the sector.
     #[error("{what} node index {node} is out of range (the sector has {n_nodes} nodes)")]
     NodeOutOfRange {
+        /// Which list holds the index.
         what: &'static str,
+        /// The index.
         node: usize,
+        /// Number of nodes of the sector.
         n_nodes: usize,
     },
+    /// A node appears twice on the cyclic faces (e.g. a node on the axis).
     #[error(
         "node {node} is listed more than once on the cyclic faces (axis nodes and repeated face nodes are not supported)"
     )]
-    RepeatedFaceNode { node: usize },
+    RepeatedFaceNode {
+        /// The repeated node.
+        node: usize,
+    },
+    /// A one-sector model was given cyclic faces.
     #[error("a one-sector (non-cyclic) model must have empty left/right faces")]
     FacesOnSingleSector,
+    /// The node that must carry the first independent DOFs is slaved or clamped.
     #[error("first-ordered node {node} is {reason}; it cannot be an independent DOF")]
-    DependentFirstNode { node: usize, reason: &'static str },
+    DependentFirstNode {
+        /// The node.
+        node: usize,
+        /// Why it is not independent (right-face or clamped).
+        reason: &'static str,
+    },
+    /// A nodal diameter above N/2.
     #[error("nodal diameter {k} exceeds N/2 = {max}")]
-    NodalDiameter { k: usize, max: usize },
+    NodalDiameter {
+        /// The nodal diameter asked for.
+        k: usize,
+        /// The largest one, ⌊N/2⌋.
+        max: usize,
+    },
+    /// A sector matrix whose size is not `3 n_nodes` square.
     #[error("matrix is {rows}×{cols}, expected {n}×{n} (3 DOFs per node)")]
-    MatrixShape { rows: usize, cols: usize, n: usize },
+    MatrixShape {
+        /// Rows of the matrix.
+        rows: usize,
+        /// Columns of the matrix.
+        cols: usize,
+        /// Expected order, `3 n_nodes`.
+        n: usize,
+    },
+    /// The sparse backend refused to build a harmonic matrix (message from faer).
     #[error("could not build sparse matrix: {0}")]
     Sparse(String),
 }
@@ -75,7 +112,7 @@ enum NodeRole {
 
 /// Map from the sector DOFs to the independent DOFs of the cyclic problem.
 #[derive(Clone, Debug)]
-pub struct CyclicDofMap {
+pub(crate) struct CyclicDofMap {
     n_sectors: usize,
     roles: Vec<NodeRole>,
     n_independent: usize,
@@ -90,7 +127,7 @@ pub fn rot_z(angle: f64) -> Matrix3<f64> {
 }
 
 /// The inter-sector phase `e^{ikα}` with `α = 2π/N`, exactly ±1 for the real harmonics.
-pub fn cyclic_phase(k: usize, n_sectors: usize) -> c64 {
+pub(crate) fn cyclic_phase(k: usize, n_sectors: usize) -> c64 {
     if k == 0 {
         c64::new(1.0, 0.0)
     } else if 2 * k == n_sectors {
@@ -210,17 +247,17 @@ impl CyclicDofMap {
     }
 
     /// Number of independent DOFs of the harmonic problem.
-    pub fn n_independent(&self) -> usize {
+    pub(crate) fn n_independent(&self) -> usize {
         self.n_independent
     }
 
     /// Number of DOFs of the whole sector (`3·n_nodes`).
-    pub fn n_sector_dofs(&self) -> usize {
+    pub(crate) fn n_sector_dofs(&self) -> usize {
         3 * self.roles.len()
     }
 
     /// Number of independent DOFs of the `first` nodes given at construction.
-    pub fn n_first(&self) -> usize {
+    pub(crate) fn n_first(&self) -> usize {
         self.n_first
     }
 
@@ -269,7 +306,7 @@ impl CyclicDofMap {
 
     /// Triplets of the harmonic-`k` matrix `Tᴴ A T` (duplicates to be summed) over the
     /// independent DOFs, for a real symmetric sector matrix `a` in full storage.
-    pub fn harmonic_triplets(
+    pub(crate) fn harmonic_triplets(
         &self,
         a: &SparseColMat<usize, f64>,
         k: usize,
@@ -300,7 +337,8 @@ impl CyclicDofMap {
     }
 
     /// The complex Hermitian harmonic-`k` matrix `Tᴴ A T` over the independent DOFs.
-    pub fn harmonic_matrix(
+    #[cfg(test)]
+    pub(crate) fn harmonic_matrix(
         &self,
         a: &SparseColMat<usize, f64>,
         k: usize,
@@ -315,7 +353,8 @@ impl CyclicDofMap {
     /// checks): the sector is replicated N times, the right face of sector `s` merged with the
     /// left face of sector `s+1`. Global DOF `s·n_independent + j` is independent DOF `j` of
     /// sector `s`, in sector `s`'s local frame. Clamped DOFs are eliminated.
-    pub fn assemble_full(
+    #[cfg(test)]
+    pub(crate) fn assemble_full(
         &self,
         a: &SparseColMat<usize, f64>,
     ) -> Result<SparseColMat<usize, f64>, CyclicError> {

@@ -24,13 +24,18 @@ pub enum EigenError {
     /// Eigenvectors of a double eigenvalue of a complex block's real form that do not pair
     /// into the two phases `(x, J x)` of one complex mode.
     #[error("eigenvectors {start}..{end} of the real form do not pair into J-partners")]
-    NotPaired { start: usize, end: usize },
+    NotPaired {
+        /// First index of the cluster of equal eigenvalues.
+        start: usize,
+        /// One past its last index.
+        end: usize,
+    },
 }
 
 /// All eigenpairs of `K x = λ M x` (complex Hermitian blocks). With `real`, the imaginary parts
 /// are ignored and the eigenvectors are real (a complex solver would return them with arbitrary
 /// phases).
-pub fn dense_gen_eigen(
+pub(crate) fn dense_gen_eigen(
     k: MatRef<'_, c64>,
     m: MatRef<'_, c64>,
     real: bool,

@@ -29,10 +29,14 @@ pub enum FeError {
     /// An element is inverted or degenerate at a Gauss point.
     #[error("element {element}: Jacobian determinant {det:e} <= 0 at Gauss point {point}")]
     BadJacobian {
+        /// Element index in the mesh.
         element: usize,
+        /// Gauss point index, `0..27`.
         point: usize,
+        /// Jacobian determinant there (m³ per unit natural volume).
         det: f64,
     },
+
     /// The centrifugal static problem cannot be solved.
     #[error("centrifugal prestress: {0}")]
     Prestress(String),
@@ -43,7 +47,7 @@ pub enum FeError {
 
 /// Shape data at one Gauss point in physical coordinates.
 #[derive(Clone, Copy, Debug)]
-pub struct GaussPoint {
+pub(crate) struct GaussPoint {
     /// Shape function values N_a.
     pub n: [f64; 20],
     /// Physical gradients ∂N_a/∂(x, y, z), 1/m.
@@ -57,7 +61,10 @@ pub struct GaussPoint {
 /// The 27 Gauss points (3×3×3 Gauss–Legendre) of an element with node coordinates `coords`.
 ///
 /// Fails with [`FeError::BadJacobian`] (element index `element`) if det J ≤ 0 anywhere.
-pub fn gauss_points(coords: &[[f64; 3]; 20], element: usize) -> Result<[GaussPoint; 27], FeError> {
+pub(crate) fn gauss_points(
+    coords: &[[f64; 3]; 20],
+    element: usize,
+) -> Result<[GaussPoint; 27], FeError> {
     const G: [f64; 3] = [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4];
     const W: [f64; 3] = [5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0];
     let mut out = [GaussPoint {
@@ -140,7 +147,7 @@ fn inv3(m: &[[f64; 3]; 3], det: f64) -> [[f64; 3]; 3] {
 }
 
 /// Isotropic elasticity matrix D (6×6, Pa) in Voigt order xx, yy, zz, xy, yz, zx with engineering shear strains.
-pub fn elasticity_matrix(mat: &Material) -> [[f64; 6]; 6] {
+pub(crate) fn elasticity_matrix(mat: &Material) -> [[f64; 6]; 6] {
     let (e, nu) = (mat.young, mat.poisson);
     let lam = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     let mu = e / (2.0 * (1.0 + nu));
@@ -168,7 +175,7 @@ fn b_block(g: &[f64; 3]) -> [[f64; 3]; 6] {
 }
 
 /// Element stiffness K_e = ∫ Bᵀ D B dV (60×60 row-major, N/m).
-pub fn element_stiffness(gps: &[GaussPoint; 27], mat: &Material) -> Vec<f64> {
+pub(crate) fn element_stiffness(gps: &[GaussPoint; 27], mat: &Material) -> Vec<f64> {
     let d = elasticity_matrix(mat);
     let mut k = vec![0.0; 3600];
     for gp in gps {
@@ -205,7 +212,7 @@ pub fn element_stiffness(gps: &[GaussPoint; 27], mat: &Material) -> Vec<f64> {
 
 /// Element mass matrix `∫ ρ Nᵀ diag(w) N dV` (60×60 row-major, kg): `dirs = [1,1,1]` gives the
 /// consistent mass, `dirs = [1,1,0]` the spin-softening matrix M_s of a rotation about z.
-pub fn element_mass(gps: &[GaussPoint; 27], density: f64, dirs: [f64; 3]) -> Vec<f64> {
+pub(crate) fn element_mass(gps: &[GaussPoint; 27], density: f64, dirs: [f64; 3]) -> Vec<f64> {
     let mut m = vec![0.0; 3600];
     for gp in gps {
         for a in 0..20 {
@@ -221,7 +228,7 @@ pub fn element_mass(gps: &[GaussPoint; 27], density: f64, dirs: [f64; 3]) -> Vec
 }
 
 /// Centrifugal load per unit Ω², `f = ∫ ρ Nᵀ (x, y, 0) dV` (N·s², 60 entries), rotation about z.
-pub fn element_centrifugal_load(gps: &[GaussPoint; 27], density: f64) -> [f64; 60] {
+pub(crate) fn element_centrifugal_load(gps: &[GaussPoint; 27], density: f64) -> [f64; 60] {
     let mut f = [0.0; 60];
     for gp in gps {
         for a in 0..20 {
@@ -235,7 +242,11 @@ pub fn element_centrifugal_load(gps: &[GaussPoint; 27], density: f64) -> [f64; 6
 
 /// Cauchy stresses (Voigt xx, yy, zz, xy, yz, zx; Pa) at the 27 Gauss points for element
 /// displacements `u` (60 entries, m), `σ = D B u`.
-pub fn element_stresses(gps: &[GaussPoint; 27], mat: &Material, u: &[f64; 60]) -> [[f64; 6]; 27] {
+pub(crate) fn element_stresses(
+    gps: &[GaussPoint; 27],
+    mat: &Material,
+    u: &[f64; 60],
+) -> [[f64; 6]; 27] {
     let d = elasticity_matrix(mat);
     let mut out = [[0.0; 6]; 27];
     for (q, gp) in gps.iter().enumerate() {
@@ -255,7 +266,10 @@ pub fn element_stresses(gps: &[GaussPoint; 27], mat: &Material, u: &[f64; 60]) -
 
 /// Geometric (initial-stress) stiffness `K_σ = ∫ Gᵀ Σ G dV` (60×60 row-major, N/m), Σ =
 /// blockdiag(σ, σ, σ) with σ the 3×3 Cauchy stress at each Gauss point (`stresses` in Voigt order).
-pub fn element_geometric_stiffness(gps: &[GaussPoint; 27], stresses: &[[f64; 6]; 27]) -> Vec<f64> {
+pub(crate) fn element_geometric_stiffness(
+    gps: &[GaussPoint; 27],
+    stresses: &[[f64; 6]; 27],
+) -> Vec<f64> {
     let mut k = vec![0.0; 3600];
     for (gp, s) in gps.iter().zip(stresses) {
         let sig = [[s[0], s[3], s[5]], [s[3], s[1], s[4]], [s[5], s[4], s[2]]];
@@ -280,7 +294,7 @@ pub fn element_geometric_stiffness(gps: &[GaussPoint; 27], stresses: &[[f64; 6];
 
 /// Sparse matrices of one sector (DOF `3*node + dir`, full storage of both triangles).
 #[derive(Clone, Debug)]
-pub struct SectorMatrices {
+pub(crate) struct SectorMatrices {
     /// Elastic stiffness K0, N/m.
     pub stiffness: SparseColMat<usize, f64>,
     /// Consistent mass M, kg.
@@ -326,7 +340,7 @@ fn sparse(
 ///
 /// Fails if the mesh is invalid, an element is inverted, or (with K1) the constrained static
 /// problem is singular (e.g. no clamped nodes).
-pub fn assemble_sector(
+pub(crate) fn assemble_sector(
     mesh: &SectorMesh,
     with_centrifugal: bool,
 ) -> Result<SectorMatrices, FeError> {
@@ -444,7 +458,7 @@ fn cyclic_nd0_map(mesh: &SectorMesh) -> (Vec<Vec<(usize, f64)>>, usize) {
 /// Static centrifugal displacement per unit Ω² (m·s²): solves `K0 u = f` with the
 /// nodal-diameter-0 cyclic condition `u_right = R(α) u_left` and the clamped nodes fixed, by
 /// sparse Cholesky of the constrained stiffness. `f` is the centrifugal load per unit Ω².
-pub fn centrifugal_displacement(
+pub(crate) fn centrifugal_displacement(
     mesh: &SectorMesh,
     k0: &SparseColMat<usize, f64>,
     f: &[f64],

@@ -2,7 +2,7 @@
 //! functions. The mesh builder orders element nodes by it; the element matrices integrate with it.
 
 /// Natural coordinates (ξ, η, ζ) of the 20 Hex20 nodes, in the order documented on [`SectorMesh`](super::mesh::SectorMesh).
-pub const HEX20_NATURAL: [[f64; 3]; 20] = [
+pub(crate) const HEX20_NATURAL: [[f64; 3]; 20] = [
     [-1.0, -1.0, -1.0],
     [1.0, -1.0, -1.0],
     [1.0, 1.0, -1.0],
@@ -26,7 +26,7 @@ pub const HEX20_NATURAL: [[f64; 3]; 20] = [
 ];
 
 /// Hex20 serendipity shape functions N_a(ξ, η, ζ) and their derivatives ∂N_a/∂(ξ, η, ζ).
-pub fn hex20_shape(xi: [f64; 3]) -> ([f64; 20], [[f64; 3]; 20]) {
+pub(crate) fn hex20_shape(xi: [f64; 3]) -> ([f64; 20], [[f64; 3]; 20]) {
     let mut n = [0.0; 20];
     let mut dn = [[0.0; 3]; 20];
     let [x, y, z] = xi;

@@ -15,7 +15,13 @@ use thiserror::Error;
 pub enum MeshError {
     /// A geometric or material parameter is out of its admissible range.
     #[error("invalid parameter `{field}`: {reason}")]
-    InvalidParameter { field: &'static str, reason: String },
+    InvalidParameter {
+        /// Name of the parameter.
+        field: &'static str,
+        /// Why its value is rejected.
+        reason: String,
+    },
+
     /// The mesh topology or the cyclic face pairing is inconsistent.
     #[error("invalid mesh: {0}")]
     InvalidMesh(String),
@@ -114,7 +120,7 @@ pub struct SectorMesh {
 
 impl SectorMesh {
     /// Sector angle α = 2π/N, rad.
-    pub fn sector_angle(&self) -> f64 {
+    pub(crate) fn sector_angle(&self) -> f64 {
         2.0 * std::f64::consts::PI / self.n_sectors as f64
     }
 
@@ -199,7 +205,7 @@ pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// Incremental builder of a Hex20 mesh from structured blocks; nodes closer than `tol`
 /// (m) are merged so that blocks sharing a face share its nodes.
 #[derive(Debug)]
-pub struct MeshBuilder {
+pub(crate) struct MeshBuilder {
     /// Node coordinates, m.
     pub nodes: Vec<[f64; 3]>,
     /// Hex20 connectivity.
@@ -212,7 +218,7 @@ pub struct MeshBuilder {
 /// Node indices of a structured block on its fine grid (2n+1 points per direction; points with
 /// two or more odd indices do not exist in a Hex20 mesh).
 #[derive(Debug)]
-pub struct BlockNodes {
+pub(crate) struct BlockNodes {
     /// Fine-grid size per direction (2n+1).
     pub dims: [usize; 3],
     ids: Vec<usize>,
@@ -280,7 +286,11 @@ impl MeshBuilder {
     /// Adds a structured block of `n[0]×n[1]×n[2]` Hex20 elements: `map` sends logical
     /// coordinates s ∈ \[0,1\]³ to space. Element orientation is flipped where needed so that
     /// every Jacobian is positive at the element centre.
-    pub fn add_block(&mut self, n: [usize; 3], map: impl Fn([f64; 3]) -> [f64; 3]) -> BlockNodes {
+    pub(crate) fn add_block(
+        &mut self,
+        n: [usize; 3],
+        map: impl Fn([f64; 3]) -> [f64; 3],
+    ) -> BlockNodes {
         let dims = n.map(|k| 2 * k + 1);
         let mut ids = vec![usize::MAX; dims[0] * dims[1] * dims[2]];
         for i in 0..dims[0] {
@@ -378,7 +388,7 @@ impl Meridian {
 
     /// Unit normal (r, z components) at φ on the flow side of a shroud curve: the tangent
     /// rotated by +90° in the (r, z) plane, i.e. (−1, 0) at the inlet and (0, +1) at the outlet.
-    pub fn flow_normal(&self, phi: f64) -> [f64; 2] {
+    pub(crate) fn flow_normal(&self, phi: f64) -> [f64; 2] {
         let t = self.tangent(phi);
         [-t[1], t[0]]
     }
@@ -439,7 +449,7 @@ pub struct CasingGeometry {
 }
 
 /// Default shroud meridian shared by casing and impeller: r 0.075 → 0.120 m over 0.055 m.
-pub const DEFAULT_SHROUD: Meridian = Meridian {
+pub(crate) const DEFAULT_SHROUD: Meridian = Meridian {
     r_in: 0.075,
     r_out: 0.120,
     length: 0.055,
@@ -846,7 +856,8 @@ impl ImpellerGeometry {
     }
 
     /// The blade alone (no disk, non-cyclic), clamped at its root: used to check mesh convergence.
-    pub fn build_blade_only(&self) -> Result<SectorMesh, MeshError> {
+    #[cfg(test)]
+    pub(crate) fn build_blade_only(&self) -> Result<SectorMesh, MeshError> {
         self.validate()?;
         let mut b = MeshBuilder::new(1e-9 * self.shroud.r_out);
         let blade = b.add_block([self.elements_meridian, 1, self.elements_span], |s| {

@@ -4,11 +4,13 @@
 pub mod build;
 #[cfg(test)]
 mod builtin_sectors;
+#[allow(missing_docs)] // documented after #23 lands
 pub mod component;
 pub mod cyclic;
 pub mod eigen;
 pub mod fe;
-pub mod hex20;
+pub(crate) mod hex20;
 pub mod mesh;
 pub mod reduction;
+#[allow(missing_docs)] // documented after #23 lands
 pub mod rom;

@@ -36,7 +36,7 @@ use thiserror::Error;
 
 /// Options of the cyclic Craig–Bampton reduction.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ReductionOptions {
+pub(crate) struct ReductionOptions {
     /// Fixed-interface modes kept per nodal diameter `n_m` (paper: 10). Capped by the number of
     /// interior DOFs.
     pub modes_per_diameter: usize,
@@ -70,50 +70,91 @@ impl Default for ReductionOptions {
 /// A reduction that could not be carried out; every variant names the cause.
 #[derive(Debug, Error)]
 pub enum ReductionError {
+    /// The sector's cyclic topology is inconsistent.
     #[error("cyclic sector: {0}")]
     Cyclic(#[from] CyclicError),
+    /// No contact nodes: the Craig–Bampton boundary would be empty.
     #[error("the sector has no contact nodes: the Craig–Bampton boundary would be empty")]
     NoContactNodes,
+    /// `modes_per_diameter` is zero.
     #[error("modes_per_diameter must be at least 1")]
     NoModes,
+    /// A speed of the Ω grid is negative or not finite.
     #[error("omega_grid entry {value} is not a finite non-negative speed (rad/s)")]
-    BadOmega { value: f64 },
+    BadOmega {
+        /// The rejected speed (rad/s).
+        value: f64,
+    },
+    /// The node list and the matrices disagree on the number of DOFs.
     #[error("nodes has {found} entries but the matrices have {dofs} DOFs (3 per node)")]
-    NodeCount { found: usize, dofs: usize },
+    NodeCount {
+        /// Number of nodes given.
+        found: usize,
+        /// Order of the matrices.
+        dofs: usize,
+    },
+    /// A sector matrix is not square of the model's order.
     #[error("{what} matrix is {rows}×{cols}, expected {n}×{n}")]
     MatrixShape {
+        /// `"stiffness"`, `"mass"` or `"centrifugal"`.
         what: &'static str,
+        /// Rows of the matrix.
         rows: usize,
+        /// Columns of the matrix.
         cols: usize,
+        /// Expected order, 3 per node.
         n: usize,
     },
+    /// The interior stiffness `K_II` cannot be Cholesky-factorised: the contact nodes and
+    /// clamps leave a rigid-body motion of the interior free.
     #[error(
         "nodal diameter {k}: interior stiffness K_II is not positive definite (the contact nodes and clamps do not suppress every rigid-body motion of the interior?): {detail}"
     )]
-    InteriorNotDefinite { k: usize, detail: String },
-    #[error("nodal diameter {k}: {what} is not positive definite: {detail}")]
-    NotDefinite {
+    InteriorNotDefinite {
+        /// Nodal diameter.
         k: usize,
-        what: &'static str,
+        /// The factorisation's message.
         detail: String,
     },
+    /// A reduced matrix is not positive definite (not constructed by the current reduction;
+    /// kept for callers that match on it).
+    #[error("nodal diameter {k}: {what} is not positive definite: {detail}")]
+    NotDefinite {
+        /// Nodal diameter.
+        k: usize,
+        /// Which matrix.
+        what: &'static str,
+        /// The factorisation's message.
+        detail: String,
+    },
+    /// The dense generalized eigensolver of the fixed-interface problem failed.
     #[error("nodal diameter {k}: eigensolver failed: {source}")]
-    Eigen { k: usize, source: EigenError },
+    Eigen {
+        /// Nodal diameter.
+        k: usize,
+        /// The eigensolver's error.
+        source: EigenError,
+    },
+    /// The shift-invert subspace iteration for the fixed-interface modes did not converge.
     #[error(
         "nodal diameter {k}: subspace iteration did not converge in {iterations} iterations (relative residual {residual:.2e})"
     )]
     NoConvergence {
+        /// Nodal diameter.
         k: usize,
+        /// Iterations done.
         iterations: usize,
+        /// Largest relative residual `‖K φ − λ M φ‖ / ‖K φ‖` of the kept modes.
         residual: f64,
     },
+    /// The reduced model fails the ROM's own validation.
     #[error("reduced model is invalid: {0}")]
     Rom(#[from] RomError),
 }
 
 /// Borrowed view of a sector FE model: the input of the reduction, independent of the mesher.
 #[derive(Clone, Copy, Debug)]
-pub struct SectorModel<'a> {
+pub(crate) struct SectorModel<'a> {
     /// Cyclic topology (N, faces, clamps).
     pub topology: SectorTopology<'a>,
     /// Node coordinates (m), global frame of sector 0.
@@ -130,7 +171,7 @@ pub struct SectorModel<'a> {
 
 /// Result of the reduction of one nodal diameter.
 #[derive(Clone, Debug)]
-pub struct HarmonicReduction {
+pub(crate) struct HarmonicReduction {
     /// Reduced matrices.
     pub block: HarmonicBlock,
     /// Free-vibration data of the reduced model over the Ω grid.
@@ -141,7 +182,7 @@ pub struct HarmonicReduction {
 
 /// Reduces a built-in sector mesh and its assembled matrices to a [`CyclicRom`]
 /// (cyclic Craig–Bampton, DESIGN §2.2); see [`reduce_sector_model`].
-pub fn reduce_cyclic(
+pub(crate) fn reduce_cyclic(
     mesh: &SectorMesh,
     mats: &SectorMatrices,
     opts: &ReductionOptions,
@@ -164,7 +205,7 @@ pub fn reduce_cyclic(
 }
 
 /// Reduces a cyclic sector FE model to a [`CyclicRom`] by cyclic Craig–Bampton (DESIGN §2.2).
-pub fn reduce_sector_model(
+pub(crate) fn reduce_sector_model(
     model: &SectorModel<'_>,
     opts: &ReductionOptions,
 ) -> Result<CyclicRom, ReductionError> {
@@ -212,7 +253,7 @@ pub fn reduce_sector_model(
 /// The customary "half the highest kept" rule left 5 % errors on a hostile lattice sector, and
 /// on the built-in casing (10 modes per nodal diameter) a mode at 0.27 × f_top is off by 0.9 %
 /// while every mode below 0.25 × f_top is within 0.5 % (see the tests).
-pub fn accuracy_cutoff_hz(fixed_interface_hz: &[f64]) -> f64 {
+pub(crate) fn accuracy_cutoff_hz(fixed_interface_hz: &[f64]) -> f64 {
     fixed_interface_hz.last().copied().unwrap_or(0.0) * 0.25
 }
 
@@ -261,7 +302,8 @@ fn check_model(
 }
 
 /// Builds the DOF map with the contact nodes first, for [`reduce_harmonic`].
-pub fn boundary_first_map(
+#[cfg(test)]
+pub(crate) fn boundary_first_map(
     model: &SectorModel<'_>,
     opts: &ReductionOptions,
 ) -> Result<CyclicDofMap, ReductionError> {
@@ -269,7 +311,7 @@ pub fn boundary_first_map(
 }
 
 /// Cyclic Craig–Bampton reduction of nodal diameter `k` (`map` from [`boundary_first_map`]).
-pub fn reduce_harmonic(
+pub(crate) fn reduce_harmonic(
     model: &SectorModel<'_>,
     map: &CyclicDofMap,
     k: usize,
@@ -366,7 +408,7 @@ pub fn reduce_harmonic(
 
 /// Natural frequency (Hz) of an eigenvalue λ = ω² ((rad/s)²); negative for λ < 0, which flags
 /// a statically unstable (divergent) mode.
-pub fn signed_hz(lambda: f64) -> f64 {
+pub(crate) fn signed_hz(lambda: f64) -> f64 {
     lambda.signum() * lambda.abs().sqrt() / (2.0 * PI)
 }
 

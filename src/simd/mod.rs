@@ -187,7 +187,7 @@ pub fn compiled_for<R>(isa: Isa, f: impl FnOnce(Isa) -> R) -> R {
 
 /// `a·b + c`, fused if `FMA` (`f64::mul_add`), else a product and a sum.
 #[inline(always)]
-pub fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
+pub(crate) fn madd<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
     if FMA { a.mul_add(b, c) } else { a * b + c }
 }
 

@@ -31,7 +31,7 @@ macro_rules! by_width {
 /// The CPU has AVX2 and FMA.
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub unsafe fn with_avx2_fma<R>(f: impl FnOnce() -> R) -> R {
+pub(crate) unsafe fn with_avx2_fma<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 

@@ -71,31 +71,31 @@ impl JobRecord {
 }
 
 /// Directory of the job records of an output directory.
-pub fn jobs_dir(output_dir: &Path) -> PathBuf {
+pub(crate) fn jobs_dir(output_dir: &Path) -> PathBuf {
     output_dir.join("jobs")
 }
 
 /// Path of a job's record.
-pub fn record_path(output_dir: &Path, id: &str) -> PathBuf {
+pub(crate) fn record_path(output_dir: &Path, id: &str) -> PathBuf {
     jobs_dir(output_dir).join(format!("{id}.json"))
 }
 
 /// Serializes `value` as pretty JSON and writes it atomically.
-pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> std::io::Result<()> {
+pub(crate) fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> std::io::Result<()> {
     let mut bytes = serde_json::to_vec_pretty(value).map_err(std::io::Error::other)?;
     bytes.push(b'\n');
     crate::io::atomic::write_atomic(path, &bytes)
 }
 
 /// Writes a job record atomically to `<out>/jobs/<id>.json`.
-pub fn write_record(output_dir: &Path, record: &JobRecord) -> std::io::Result<()> {
+pub(crate) fn write_record(output_dir: &Path, record: &JobRecord) -> std::io::Result<()> {
     write_json_atomic(&record_path(output_dir, &record.id), record)
 }
 
 /// Reads the record of job `id`. `Ok(None)`: no record. `Err(reason)`: a file exists but
 /// is unreadable, malformed, of another format version or for another id; the caller
 /// treats the job as unfinished (running it again overwrites the file).
-pub fn read_record(output_dir: &Path, id: &str) -> Result<Option<JobRecord>, String> {
+pub(crate) fn read_record(output_dir: &Path, id: &str) -> Result<Option<JobRecord>, String> {
     let path = record_path(output_dir, id);
     let text = match fs::read_to_string(&path) {
         Ok(t) => t,

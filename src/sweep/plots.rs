@@ -122,7 +122,7 @@ fn ensure_font() -> Result<(), PlotError> {
 }
 
 /// A perceptually ordered colour map (viridis anchors, linear in between), t ∈ [0, 1].
-pub fn colormap(t: f64) -> RGBColor {
+pub(crate) fn colormap(t: f64) -> RGBColor {
     const ANCHORS: [(u8, u8, u8); 5] = [
         (68, 1, 84),
         (59, 82, 139),
@@ -611,7 +611,7 @@ pub fn wear_data_from_records<'a>(records: impl IntoIterator<Item = &'a JobRecor
 
 /// Human-readable description of a job's non-speed parameters (the slice key of an
 /// interaction map), e.g. `μ = 0.15, E ×0.1, e_abr = 0.00015 m`.
-pub fn slice_label(p: &crate::sweep::JobParams) -> String {
+pub(crate) fn slice_label(p: &crate::sweep::JobParams) -> String {
     use crate::sweep::CoatingValue;
     let mut parts = vec![format!("μ = {}", p.friction)];
     if let Some(c) = p.clearance_m {

@@ -94,7 +94,7 @@ fn schema_validator() -> &'static jsonschema::Validator {
 
 /// Checks a JSON value against the sweep schema; returns every violation with its path.
 /// Unknown fields are reported once each, with the closest valid name
-/// ([`unknown_fields`]) instead of the schema's generic message.
+/// (`unknown_fields`) instead of the schema's generic message.
 pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
     let mut issues = unknown_fields(value, schema_value());
     issues.extend(
@@ -121,7 +121,7 @@ pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
 /// The closest name to `word` among `candidates` (Damerau–Levenshtein distance, so that a
 /// swap of two letters counts one edit, at most a third of the word's length and at least
 /// 1), or `None` when nothing is close.
-pub fn did_you_mean<'a>(
+pub(crate) fn did_you_mean<'a>(
     word: &str,
     candidates: impl IntoIterator<Item = &'a str>,
 ) -> Option<&'a str> {
@@ -148,7 +148,7 @@ pub(crate) fn deref<'a>(schema: &'a Value, root: &'a Value) -> &'a Value {
 /// Every field of `value` that the JSON Schema `schema` does not allow (objects with
 /// `additionalProperties: false`), with the closest valid name when one is close:
 /// `/scenario: unknown field `load_amplitud_m`, did you mean `load_amplitude_m`?`.
-pub fn unknown_fields(value: &Value, schema: &Value) -> Vec<SpecIssue> {
+pub(crate) fn unknown_fields(value: &Value, schema: &Value) -> Vec<SpecIssue> {
     let mut issues = Vec::new();
     walk(value, schema, schema, "", &mut issues);
     issues

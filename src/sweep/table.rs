@@ -195,7 +195,7 @@ fn peak_fields() -> Fields {
 }
 
 /// Builds the results table from job records `(job index, record)`; rows are sorted by index.
-pub fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> {
+pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> {
     let mut rows: Vec<&(usize, JobRecord)> = rows.iter().collect();
     rows.sort_by_key(|(i, _)| *i);
     let res = |f: fn(&crate::sweep::JobResult) -> Option<f64>| -> ArrayRef {
@@ -334,7 +334,7 @@ pub fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> {
 }
 
 /// Writes the results table to `path` atomically ([`AtomicFile`]), ZSTD compressed.
-pub fn write_results(path: &Path, rows: &[(usize, JobRecord)]) -> Result<()> {
+pub(crate) fn write_results(path: &Path, rows: &[(usize, JobRecord)]) -> Result<()> {
     let batch = results_batch(rows)?;
     let write = || -> Result<()> {
         let props = WriterProperties::builder()
