@@ -25,7 +25,6 @@ pub mod numerics;
 pub mod probes;
 #[allow(missing_docs)] // documented after #23 lands
 pub mod recorder;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod scenario;
 #[allow(missing_docs)] // documented after #23 lands
 pub mod simulate;

@@ -31,10 +31,18 @@ pub struct LobeLoad {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum RigidShape {
-    /// `r(θ, z) = r₀(z) − δ cos(n θ)`; `amplitude` δ in m, `lobes = 0` gives a cylinder of revolution.
-    Lobes { lobes: usize, amplitude: f64 },
-    /// Radius offset Δr(θ_i) (m) per circumferential station i = 0..N−1, added on every row.
-    Tabulated { offsets: Vec<f64> },
+    /// `r(θ, z) = r₀(z) − δ cos(n θ)`.
+    Lobes {
+        /// Number of lobes n; 0 gives a cylinder of revolution.
+        lobes: usize,
+        /// Distortion amplitude δ (m).
+        amplitude: f64,
+    },
+    /// Radius offsets added on every row.
+    Tabulated {
+        /// Radius offset Δr(θ_i) (m) per circumferential station i = 0..N−1.
+        offsets: Vec<f64>,
+    },
 }
 
 /// The resolved surface of a rigid casing (stations, meridian, shape): the spline is built
@@ -106,7 +114,9 @@ pub enum CasingModel {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct InitialVelocity {
+    /// Impeller velocities (m/s), one per DOF of its assembled ROM.
     pub impeller: Option<Vec<f64>>,
+    /// Casing velocities (m/s), one per DOF of its assembled ROM (flexible casing only).
     pub casing: Option<Vec<f64>>,
 }
 

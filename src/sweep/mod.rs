@@ -15,7 +15,6 @@ pub mod planner;
 pub mod plots;
 pub mod runner;
 pub mod schema;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod simulator;
 #[allow(missing_docs)] // documented after #23 lands
 pub mod spec;
