@@ -709,6 +709,7 @@ mod tests {
                 ContactNode {
                     position: [rr * f.cos(), rr * f.sin(), zz],
                     row: j,
+                    id: None,
                 }
             })
             .collect()

@@ -2020,6 +2020,7 @@ mod tests {
             contact_nodes: vec![ContactNode {
                 position: [r0, 0.0, 0.0],
                 row: 0,
+                id: None,
             }],
             harmonics: vec![HarmonicBlock {
                 nodal_diameter: 0,
@@ -2034,6 +2035,7 @@ mod tests {
             modal_data: vec![],
             damping: Damping::Modal { ratio: 0.0 },
             provenance: serde_json::Value::Null,
+            recovery: Default::default(),
         };
         let casing = CasingModel::Rigid(RigidSurface {
             n_sectors: 64,

@@ -185,6 +185,7 @@ pub fn reduce_sector_model(
         .map(|(row, &n)| ContactNode {
             position: model.nodes[n],
             row,
+            id: None,
         })
         .collect();
     let provenance = serde_json::json!({
@@ -205,6 +206,7 @@ pub fn reduce_sector_model(
         modal_data,
         damping: opts.damping,
         provenance,
+        recovery: Default::default(),
     };
     rom.validate()?;
     Ok(rom)
