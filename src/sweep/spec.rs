@@ -18,6 +18,7 @@ use serde_json::Value;
 
 use crate::dynamics::abradable::CoatingMaterial;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
+pub use crate::dynamics::probes::ProbeSpec;
 use crate::model::build::{CasingSpec, ImpellerSpec};
 pub use crate::sweep::schema::{SWEEP_SCHEMA, SpecError, SpecIssue, validate_against_schema};
 
@@ -150,6 +151,10 @@ pub struct Scenario {
     /// (flexible casing; sector < N, node < M of the casing).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub casing_probes: Vec<[usize; 2]>,
+    /// Probes of contact and recovery nodes, one time-series column each, in this order
+    /// (see [`ProbeSpec`]; checked against the models by [`crate::sweep::validate::resolve`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probes: Vec<ProbeSpec>,
     /// Fraction of the run, at its end, used as the steady window of the spectra, in (0, 1]
     /// (default 0.5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -1250,6 +1255,7 @@ mod tests {
                 load_amplitude_m: Some(1e-4),
                 load_ramp_s: Some(0.01),
                 casing_probes: vec![[0, 1]],
+                probes: vec![],
                 steady_fraction: Some(0.5),
                 rigid_stations: Some(60),
                 coating: Some(CoatingScenario::default()),
