@@ -208,7 +208,33 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
         String::from_utf8_lossy(&warm.stderr)
     );
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &[&str]); 8] = [
+    let cases: [(&str, Edit, &[&str]); 11] = [
+        (
+            "probe_typo",
+            |v| v["scenario"]["probes"] = serde_json::json!([{"nod": 5, "quantity": "gap"}]),
+            &[
+                "/scenario/probes/0",
+                "unknown field `nod`",
+                "did you mean `node`",
+            ],
+        ),
+        (
+            "probe_row_missing",
+            |v| {
+                v["scenario"]["probes"] = serde_json::json!([
+                    {"blade": 0, "row": 0, "quantity": "gap"},
+                    {"blade": 0, "row": 99, "quantity": "normal_force"}
+                ])
+            },
+            &["/scenario/probes/1/row", "99 does not exist"],
+        ),
+        (
+            "probe_node_missing",
+            |v| {
+                v["scenario"]["probes"] = serde_json::json!([{"node": 1353, "quantity": "displacement", "component": "y"}])
+            },
+            &["/scenario/probes/0/node", "no recovery nodes"],
+        ),
         (
             "scenario_typo",
             |v| v["scenario"]["load_amplitud_m"] = serde_json::json!(1e-4),

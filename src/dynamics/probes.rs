@@ -304,7 +304,8 @@ pub struct Probe {
 pub struct ProbeError {
     /// Index of the probe in the spec's list.
     pub index: usize,
-    /// Field of the probe at fault (`node`, `contact_node`, `quantity`, …).
+    /// Field of the probe at fault (`node`, `contact_node`, `quantity`, …); empty when the
+    /// probe as a whole is at fault (no node, or two).
     pub field: &'static str,
     pub reason: String,
 }
@@ -350,7 +351,7 @@ fn resolve_one(
     ];
     if given.iter().filter(|&&g| g).count() != 1 {
         return Err((
-            "node",
+            "",
             "give exactly one of `node`, `contact_node`, `blade` + `row` or `sector` + `row`"
                 .into(),
         ));
@@ -675,7 +676,7 @@ mod tests {
             serde_json::json!({"node": 1353, "contact_node": 188, "quantity": "gap"}),
             None,
         );
-        assert_eq!(e.field, "node");
+        assert_eq!(e.field, "");
         // A model without recovery rows says how to get them.
         let mut plain = impeller();
         plain.recovery = Recovery::default();
