@@ -31,6 +31,7 @@ fn main() {
         load: None,
         clearance_offset: vec![offset; rows],
         casing_probes: vec![],
+        probes: vec![],
         initial_velocity: InitialVelocity::default(),
         numerics: Numerics {
             time_step: h,

@@ -19,6 +19,7 @@ use crate::io::timeseries::TimeSeriesWriter;
 use crate::sweep::plots::{
     CampbellData, CasingMode, ImpellerBranch, campbell_diagram, write_sweep_plots,
 };
+use crate::sweep::probe_report::ProbeReport;
 use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::spec::CasingSource;
 use crate::sweep::{
@@ -237,8 +238,18 @@ pub fn simulate(
         Path::to_path_buf,
     );
     let mut series = TimeSeriesWriter::create(&dir.join("timeseries.parquet"))?;
-    let out = simulation.run(&mut series, Some(&cancel)).map_err(failed)?;
+    let report = spec.scenario.revolution_report;
+    let mut figures = report.map(|w| ProbeReport::new(case.omega, case.duration, w));
+    let out = match figures.as_mut() {
+        Some(f) => simulation.run(&mut (&mut series, f), Some(&cancel)),
+        None => simulation.run(&mut series, Some(&cancel)),
+    }
+    .map_err(failed)?;
     series.finish()?;
+    let figures = figures
+        .map(ProbeReport::finish)
+        .transpose()
+        .map_err(|e| anyhow!(e))?;
     let summary = serde_json::json!({
         "job_id": job.id,
         "case": case,
@@ -248,9 +259,13 @@ pub fn simulate(
         "steps_per_revolution": out.steps_per_revolution,
         "n_steps": out.n_steps,
         "contact_steps": out.contact_steps,
+        "closed_contact_steps": out.closed_contact_steps,
+        "closed_contact_fraction": out.closed_contact_steps as f64 / out.n_steps.max(1) as f64,
         "max_blade_radial_m": out.max_blade_radial,
         "max_residual_penetration_m": out.max_residual_penetration,
         "loop_seconds": out.loop_seconds,
+        "revolution_report": report,
+        "probes": figures,
     });
     crate::io::atomic::write_atomic(
         &dir.join("summary.json"),
@@ -269,6 +284,27 @@ pub fn simulate(
         out.steps_per_revolution,
         dir.display()
     );
+    eprintln!(
+        "closed contact on {:.4} of the steps; largest residual penetration {:.3e} m",
+        out.closed_contact_steps as f64 / out.n_steps.max(1) as f64,
+        out.max_residual_penetration
+    );
+    for f in figures.iter().flatten() {
+        let s = &f.steady;
+        eprintln!(
+            "{}: min {:.6e} max {:.6e} {u}; last revolutions: peak-to-peak {:.6e} {u}, mean {:.6e} {u}, \
+             dominant {:.3} Hz (engine order {:.3}, amplitude {:.4e} {u})",
+            f.column,
+            f.min,
+            f.max,
+            s.peak_to_peak,
+            s.mean,
+            s.dominant_frequency_hz,
+            s.dominant_engine_order,
+            s.dominant_amplitude,
+            u = f.unit
+        );
+    }
     Ok(dir)
 }
 

@@ -212,6 +212,7 @@ pub fn synthetic_rom(spec: &SyntheticSpec) -> CyclicRom {
             ContactNode {
                 position: [r, 0.0, z],
                 row: j,
+                id: None,
             }
         })
         .collect();
@@ -224,6 +225,7 @@ pub fn synthetic_rom(spec: &SyntheticSpec) -> CyclicRom {
         modal_data: vec![],
         damping: spec.damping,
         provenance: serde_json::json!({"synthetic": true}),
+        recovery: Default::default(),
     }
 }
 

@@ -64,6 +64,70 @@ fn simulate_writes_documented_time_series() {
     std::fs::remove_dir_all(&out).unwrap();
 }
 
+/// `scenario.probes` reach `simulate`'s time series: one column per probe, named by node
+/// and component, with its unit; the radial displacement of blade 0's row 0 equals the
+/// built-in leading-edge column.
+#[test]
+fn simulate_writes_the_probe_columns_of_the_spec() {
+    use arrow_array::Float64Array;
+    let dir = tmp("simprobes");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_with(&dir, "probes", |v| {
+        v["scenario"]["probes"] = serde_json::json!([
+            {"blade": 0, "row": 0, "quantity": "displacement", "component": "radial"},
+            {"blade": 1, "row": 0, "quantity": "gap"},
+            {"blade": 1, "row": 0, "quantity": "normal_force"},
+            {"sector": 3, "row": 0, "quantity": "displacement", "component": "axial"}
+        ])
+    });
+    let out = dir.join("out");
+    let st = rubscan()
+        .args(["simulate"])
+        .arg(&spec)
+        .args(["--job", "1", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let file = std::fs::File::open(out.join("timeseries.parquet")).unwrap();
+    let reader =
+        parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file).unwrap();
+    let schema = reader.schema().clone();
+    for (name, unit) in [
+        ("blade0_row0_radial_m", "m"),
+        ("blade1_row0_gap_m", "m"),
+        ("blade1_row0_normal_force_n", "N"),
+        ("casing3_row0_axial_m", "m"),
+    ] {
+        let f = schema
+            .field_with_name(name)
+            .unwrap_or_else(|_| panic!("column {name} missing"));
+        assert_eq!(f.metadata()["unit"], unit, "{name}");
+    }
+    let column = |name: &str| -> Vec<f64> {
+        let i = schema.index_of(name).unwrap();
+        let file = std::fs::File::open(out.join("timeseries.parquet")).unwrap();
+        parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+            .unwrap()
+            .build()
+            .unwrap()
+            .flat_map(|b| {
+                let b = b.unwrap();
+                let c = b.column(i).as_any().downcast_ref::<Float64Array>().unwrap();
+                c.values().to_vec()
+            })
+            .collect()
+    };
+    let le = column("blade0_le_radial_m");
+    assert!(le.iter().any(|x| *x != 0.0));
+    assert_eq!(column("blade0_row0_radial_m"), le);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn bad_specs_fail_with_the_json_path_and_write_nothing() {
     let dir = tmp("bad");
@@ -208,7 +272,33 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
         String::from_utf8_lossy(&warm.stderr)
     );
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &[&str]); 8] = [
+    let cases: [(&str, Edit, &[&str]); 11] = [
+        (
+            "probe_typo",
+            |v| v["scenario"]["probes"] = serde_json::json!([{"nod": 5, "quantity": "gap"}]),
+            &[
+                "/scenario/probes/0",
+                "unknown field `nod`",
+                "did you mean `node`",
+            ],
+        ),
+        (
+            "probe_row_missing",
+            |v| {
+                v["scenario"]["probes"] = serde_json::json!([
+                    {"blade": 0, "row": 0, "quantity": "gap"},
+                    {"blade": 0, "row": 99, "quantity": "normal_force"}
+                ])
+            },
+            &["/scenario/probes/1/row", "99 does not exist"],
+        ),
+        (
+            "probe_node_missing",
+            |v| {
+                v["scenario"]["probes"] = serde_json::json!([{"node": 1353, "quantity": "displacement", "component": "y"}])
+            },
+            &["/scenario/probes/0/node", "no recovery nodes"],
+        ),
         (
             "scenario_typo",
             |v| v["scenario"]["load_amplitud_m"] = serde_json::json!(1e-4),

@@ -43,6 +43,7 @@ fn case(material: CoatingMaterial, eta: usize, clearance: [f64; 2], duration: f6
         // Tips at (casing radius − e_abr − clearance).
         clearance_offset: clearance.iter().map(|c| c0 - e - c).collect(),
         casing_probes: vec![],
+        probes: vec![],
         initial_velocity: InitialVelocity::default(),
         numerics: Numerics {
             time_step: 1e-7,

@@ -36,6 +36,7 @@ fn run(numerics: Numerics) -> SimulationOutput {
         }),
         clearance_offset: vec![],
         casing_probes: vec![[0, 2]],
+        probes: vec![],
         initial_velocity: InitialVelocity::default(),
         numerics,
         coating: None,

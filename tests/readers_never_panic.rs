@@ -524,6 +524,7 @@ fn small_rom() -> rubscan::model::rom::CyclicRom {
     let node = |x: f64, row| ContactNode {
         position: [x, 0.0, 0.01],
         row,
+        id: None,
     };
     CyclicRom {
         name: "fuzz".into(),
@@ -543,6 +544,7 @@ fn small_rom() -> rubscan::model::rom::CyclicRom {
             beta: 1e-6,
         },
         provenance: json!({"test": "readers_never_panic"}),
+        recovery: Default::default(),
     }
 }
 

@@ -6,6 +6,7 @@
 
 use rubscan::app::{casing_rom, impeller_rom};
 use rubscan::dynamics::abradable::CoatingMaterial;
+use rubscan::dynamics::probes::{ProbeComponent, ProbeQuantity, ProbeSpec};
 use rubscan::dynamics::recorder::SeriesRecorder;
 use rubscan::dynamics::simulate::Simulation;
 use rubscan::dynamics::{Case, CasingModel, CoatingCase, LobeLoad, Numerics, SimulationOutput};
@@ -41,7 +42,8 @@ fn assert_common_samples_equal(a: &SimulationOutput, b: &SimulationOutput, strid
         assert_eq!(pick(x), bits(y), "{name} differs (stride {stride})");
     };
     same("time", &a.time, &b.time);
-    let groups: [(&str, &Series, &Series); 6] = [
+    let groups: [(&str, &Series, &Series); 7] = [
+        ("probes", &a.probes, &b.probes),
         ("blade_le_radial", &a.blade_le_radial, &b.blade_le_radial),
         ("blade_te_radial", &a.blade_te_radial, &b.blade_te_radial),
         ("casing_radial", &a.casing_radial, &b.casing_radial),
@@ -131,6 +133,47 @@ fn check_decimations(case: &Case, imp: &CyclicRom, casing: &CasingModel) -> Simu
     every
 }
 
+/// Gap, forces and displacements of the trailing-edge tip node of blades 0 and 3, and a
+/// casing contact node `[sector, row]`: probes that read the state (the gap re-projects a
+/// node) must leave it unchanged.
+fn tip_probes(rows: usize, casing: Option<[usize; 2]>) -> Vec<ProbeSpec> {
+    let mut v = Vec::new();
+    for blade in [0, 3] {
+        for (quantity, component) in [
+            (ProbeQuantity::Gap, None),
+            (ProbeQuantity::NormalForce, None),
+            (ProbeQuantity::TangentialForce, None),
+            (ProbeQuantity::Displacement, Some(ProbeComponent::Radial)),
+            (
+                ProbeQuantity::Displacement,
+                Some(ProbeComponent::Tangential),
+            ),
+        ] {
+            v.push(ProbeSpec {
+                node: None,
+                contact_node: None,
+                blade: Some(blade),
+                sector: None,
+                row: Some(rows - 1),
+                quantity,
+                component,
+            });
+        }
+    }
+    if let Some([sector, row]) = casing {
+        v.push(ProbeSpec {
+            node: None,
+            contact_node: None,
+            blade: None,
+            sector: Some(sector),
+            row: Some(row),
+            quantity: ProbeQuantity::Displacement,
+            component: Some(ProbeComponent::Axial),
+        });
+    }
+    v
+}
+
 fn paper_models() -> (CyclicRom, CyclicRom) {
     (
         impeller_rom(&ImpellerSpec::default()).unwrap(),
@@ -158,6 +201,7 @@ fn decimation_does_not_change_a_coated_flexible_casing_run() {
         }),
         clearance_offset: vec![-coating.material.thickness; rows],
         casing_probes: vec![[0, 4], [25, 4]],
+        probes: tip_probes(rows, Some([25, 4])),
         initial_velocity: Default::default(),
         numerics: Numerics {
             time_step: h,
@@ -190,6 +234,7 @@ fn decimation_does_not_change_a_rigid_casing_run() {
         load: None,
         clearance_offset: vec![],
         casing_probes: vec![],
+        probes: tip_probes(tips.len(), None),
         initial_velocity: Default::default(),
         numerics: Numerics {
             time_step: h,

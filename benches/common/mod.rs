@@ -82,6 +82,7 @@ pub fn bench_with_offsets(
         load,
         clearance_offset: offs,
         casing_probes: vec![],
+        probes: vec![],
         initial_velocity: InitialVelocity::default(),
         numerics: Numerics {
             time_step: h,

@@ -736,6 +736,7 @@ mod tests {
                 ContactNode {
                     position: [rr * f.cos(), rr * f.sin(), zz],
                     row: j,
+                    id: None,
                 }
             })
             .collect()

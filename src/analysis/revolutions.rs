@@ -11,8 +11,10 @@ use std::f64::consts::TAU;
 #[serde(deny_unknown_fields)]
 pub struct RevolutionWindows {
     /// Revolutions at the end of the run over which the peak-to-peak is taken.
+    #[serde(rename = "peak_to_peak_revolutions")]
     pub peak_to_peak: f64,
     /// Revolutions at the end of the run over which the mean and the spectrum are taken.
+    #[serde(rename = "mean_revolutions")]
     pub mean_and_spectrum: f64,
 }
 

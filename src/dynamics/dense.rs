@@ -198,4 +198,8 @@ impl StructureKernel for DenseKernel {
     fn is_finite(&self) -> bool {
         (0..self.u_next.nrows()).all(|i| self.u_next[(i, 0)].is_finite())
     }
+    fn harmonic_state(&self, out: &mut [f64]) {
+        let u = nalgebra::DVector::from_fn(self.u.nrows(), |i, _| self.u[(i, 0)]);
+        out.copy_from_slice((&self.p * u).as_slice());
+    }
 }

@@ -73,6 +73,10 @@ pub trait StructureKernel {
         let _ = spline;
         Ok(false)
     }
+    /// The state `u_n` (after [`StructureKernel::advance`]) as the concatenated harmonic
+    /// real-form vectors `[x_0; x_1; …]` of [`crate::dynamics::structure::Structure`]
+    /// (offsets `NdBlock::offset`, `n_modal` entries): what recovery rows act on. Not per step.
+    fn harmonic_state(&self, out: &mut [f64]);
     /// Contact-node displacements (m, sector-major) of `u_n` (after
     /// [`StructureKernel::advance`]), whatever the per-step channels are.
     fn node_displacements(&mut self, out: &mut [f64]) {

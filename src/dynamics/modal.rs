@@ -1039,6 +1039,15 @@ impl StructureKernel for ModalKernel {
     fn node_displacements(&mut self, out: &mut [f64]) {
         self.boundary_of(Which::Current, false, out);
     }
+    fn harmonic_state(&self, out: &mut [f64]) {
+        // x_k = Φ_k η_k: the basis is M-orthonormal (see `physical_to_modal`).
+        for (b, modes) in self.blocks.iter().zip(&self.modes_full) {
+            let eta = &self.eta[b.offset..b.offset + b.dim];
+            for (i, o) in out[b.offset..b.offset + b.dim].iter_mut().enumerate() {
+                *o = (0..b.dim).map(|j| modes[(i, j)] * eta[j]).sum();
+            }
+        }
+    }
 }
 
 #[cfg(test)]

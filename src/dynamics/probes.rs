@@ -45,6 +45,8 @@ pub struct SimulationOutput {
     /// Per blade, sum over its tip nodes of the coating force magnitude (N, along the casing
     /// normal) applied at the sample step, `[blade][sample]` (empty without a coating).
     pub coating_blade_force: Vec<Vec<f64>>,
+    /// The case's probes (`Case::probes` order), `[probe][sample]`, m or N.
+    pub probes: Vec<Vec<f64>>,
     /// The run's scalar results.
     pub summary: RunSummary,
 }
@@ -167,6 +169,8 @@ pub struct RunSummary {
     pub n_steps: usize,
     pub contact_steps: usize,
     pub active_contacts: usize,
+    /// Steps that end with at least one closed contact (a positive multiplier).
+    pub closed_contact_steps: usize,
     /// Largest residual penetration (m, over the sample steps) and largest |blade-tip radial
     /// displacement| (m, over every step).
     pub max_residual_penetration: f64,
@@ -176,4 +180,516 @@ pub struct RunSummary {
     pub stage_seconds: StageSeconds,
     /// The coating's final state (`None` without a coating).
     pub coating: Option<CoatingOutput>,
+}
+
+// ---------------------------------------------------------------------------------------
+// Probes selected by the case: displacements of contact and recovery nodes, contact forces
+// and gaps of blade-tip nodes.
+
+use crate::model::rom::{CyclicRom, Recovery};
+use nalgebra::Vector3;
+
+/// What a probe measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProbeQuantity {
+    /// Displacement (m) along `component`.
+    Displacement,
+    /// Gap (m) of a blade-tip node to the casing, after the step's correction.
+    Gap,
+    /// Normal contact force λ (N) on a blade-tip node.
+    NormalForce,
+    /// Friction force magnitude μλ (N) on a blade-tip node (0 when it sticks or is free).
+    TangentialForce,
+}
+
+/// A displacement component: x, y, z of the node's sector frame (for sector or blade 0, the
+/// model's frame: rotating for an impeller, fixed for a casing), or radial, tangential
+/// (counter-clockwise about +z) and axial (+z) at the node's reference position.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProbeComponent {
+    X,
+    Y,
+    Z,
+    Radial,
+    Tangential,
+    Axial,
+}
+
+impl ProbeComponent {
+    /// Name used in column names.
+    pub fn name(self) -> &'static str {
+        match self {
+            ProbeComponent::X => "x",
+            ProbeComponent::Y => "y",
+            ProbeComponent::Z => "z",
+            ProbeComponent::Radial => "radial",
+            ProbeComponent::Tangential => "tangential",
+            ProbeComponent::Axial => "axial",
+        }
+    }
+
+    /// Unit vector of the component at reference position `p` (m, sector frame).
+    pub fn direction(self, p: &[f64; 3]) -> Vector3<f64> {
+        let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
+        let er = if r > 0.0 {
+            Vector3::new(p[0] / r, p[1] / r, 0.0)
+        } else {
+            Vector3::x()
+        };
+        match self {
+            ProbeComponent::X => Vector3::x(),
+            ProbeComponent::Y => Vector3::y(),
+            ProbeComponent::Z => Vector3::z(),
+            ProbeComponent::Radial => er,
+            ProbeComponent::Tangential => Vector3::new(-er.y, er.x, 0.0),
+            ProbeComponent::Axial => Vector3::z(),
+        }
+    }
+}
+
+/// One probe as the spec gives it (JSON `scenario.probes[i]`). The node is one of:
+/// - `node`: a recovery node of the impeller ROM (FE id given at import), displacement only;
+/// - `contact_node`: an impeller contact node by its FE id (imported models);
+/// - `blade` and `row`: impeller contact node `row` (0 = leading edge) of blade `blade`;
+/// - `sector` and `row`: contact node `row` of sector `sector` of a flexible casing,
+///   displacement only.
+///
+/// `blade` (default 0) also picks the blade of a `node` or `contact_node`. `component` is
+/// required for a displacement and refused otherwise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_node: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blade: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sector: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub row: Option<usize>,
+    pub quantity: ProbeQuantity,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub component: Option<ProbeComponent>,
+}
+
+/// Which node a resolved probe reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ProbeTarget {
+    /// Recovery node `index` (in [`Recovery::nodes`]) of blade `blade`.
+    Recovery { blade: usize, index: usize },
+    /// Impeller contact node `index` (in `contact_nodes`) of blade `blade`.
+    Blade { blade: usize, index: usize },
+    /// Casing contact node `index` of sector `sector`.
+    Casing { sector: usize, index: usize },
+}
+
+/// A probe checked against the models: its node, what it measures, its column.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Probe {
+    pub target: ProbeTarget,
+    pub quantity: ProbeQuantity,
+    /// Unit vector of the displacement component in the node's sector frame (zero otherwise).
+    pub direction: Vector3<f64>,
+    /// Time-series column, e.g. `node1353_y_m`, `contact188_gap_m`,
+    /// `contact188_normal_force_n`, `blade0_row3_radial_m`, `casing2_row1_radial_m`.
+    pub column: String,
+    /// Unit of the values: `m` or `N`.
+    pub unit: &'static str,
+}
+
+/// Why a probe of the spec cannot be measured: the field at fault (JSON name) and the reason.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeError {
+    /// Index of the probe in the spec's list.
+    pub index: usize,
+    /// Field of the probe at fault (`node`, `contact_node`, `quantity`, …); empty when the
+    /// probe as a whole is at fault (no node, or two).
+    pub field: &'static str,
+    pub reason: String,
+}
+
+impl std::fmt::Display for ProbeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "probe {} ({}): {}", self.index, self.field, self.reason)
+    }
+}
+
+/// Resolves the probes of a case against its impeller and (flexible) casing ROMs; every
+/// nonexistent node, missing or superfluous field is an error naming the field.
+pub fn resolve_probes(
+    specs: &[ProbeSpec],
+    impeller: &CyclicRom,
+    casing: Option<&CyclicRom>,
+) -> Result<Vec<Probe>, ProbeError> {
+    specs
+        .iter()
+        .enumerate()
+        .map(|(index, s)| {
+            resolve_one(s, impeller, casing).map_err(|(field, reason)| ProbeError {
+                index,
+                field,
+                reason,
+            })
+        })
+        .collect()
+}
+
+type FieldError = (&'static str, String);
+
+fn resolve_one(
+    s: &ProbeSpec,
+    imp: &CyclicRom,
+    casing: Option<&CyclicRom>,
+) -> Result<Probe, FieldError> {
+    let given = [
+        s.node.is_some(),
+        s.contact_node.is_some(),
+        s.sector.is_some(),
+        s.row.is_some() && s.sector.is_none(),
+    ];
+    if given.iter().filter(|&&g| g).count() != 1 {
+        return Err((
+            "",
+            "give exactly one of `node`, `contact_node`, `blade` + `row` or `sector` + `row`"
+                .into(),
+        ));
+    }
+    let (target, position, prefix) = if let Some(id) = s.node {
+        let blade = check_blade(s.blade, imp)?;
+        let index = recovery_index(&imp.recovery, id)?;
+        let p = imp.recovery.nodes[index].position;
+        let target = ProbeTarget::Recovery { blade, index };
+        (target, p, blade_prefix(blade, format!("node{id}")))
+    } else if let Some(id) = s.contact_node {
+        let blade = check_blade(s.blade, imp)?;
+        let index = imp
+            .contact_nodes
+            .iter()
+            .position(|c| c.id == Some(id))
+            .ok_or_else(|| ("contact_node", contact_id_reason(id, imp)))?;
+        let p = imp.contact_nodes[index].position;
+        let target = ProbeTarget::Blade { blade, index };
+        (target, p, blade_prefix(blade, format!("contact{id}")))
+    } else if let Some(sector) = s.sector {
+        let rom = casing.ok_or_else(|| {
+            (
+                "sector",
+                "a casing probe needs a flexible casing (a rigid casing does not move)".to_string(),
+            )
+        })?;
+        if s.blade.is_some() {
+            return Err(("blade", "a casing probe takes `sector`, not `blade`".into()));
+        }
+        let row = s
+            .row
+            .ok_or(("row", "a casing probe needs `row`".to_string()))?;
+        check_index("sector", sector, rom.n_sectors, "casing sectors")?;
+        check_index(
+            "row",
+            row,
+            rom.n_contact(),
+            "casing contact nodes per sector",
+        )?;
+        let target = ProbeTarget::Casing { sector, index: row };
+        let p = rom.contact_nodes[row].position;
+        (target, p, format!("casing{sector}_row{row}"))
+    } else {
+        let row = s.row.unwrap_or(0);
+        let blade = s.blade.ok_or((
+            "blade",
+            "`row` needs `blade` (or `sector` for the casing)".to_string(),
+        ))?;
+        check_index("blade", blade, imp.n_sectors, "blades")?;
+        check_index("row", row, imp.n_contact(), "contact nodes per blade")?;
+        let target = ProbeTarget::Blade { blade, index: row };
+        let p = imp.contact_nodes[row].position;
+        (target, p, format!("blade{blade}_row{row}"))
+    };
+    finish_probe(s, target, &position, prefix)
+}
+
+/// The quantity's checks, direction, column name and unit.
+fn finish_probe(
+    s: &ProbeSpec,
+    target: ProbeTarget,
+    position: &[f64; 3],
+    prefix: String,
+) -> Result<Probe, FieldError> {
+    let blade_node = matches!(target, ProbeTarget::Blade { .. });
+    let (direction, suffix, unit) = match (s.quantity, s.component) {
+        (ProbeQuantity::Displacement, Some(c)) => {
+            (c.direction(position), format!("{}_m", c.name()), "m")
+        }
+        (ProbeQuantity::Displacement, None) => {
+            return Err((
+                "component",
+                "a displacement needs `component` (x, y, z, radial, tangential or axial)".into(),
+            ));
+        }
+        (_, Some(_)) => {
+            return Err(("component", "only a displacement takes a component".into()));
+        }
+        (q, None) if !blade_node => {
+            return Err((
+                "quantity",
+                format!(
+                    "{q:?} is measured at blade-tip contact nodes only (`contact_node` or \
+                     `blade` + `row`); this node has displacements only"
+                ),
+            ));
+        }
+        (ProbeQuantity::Gap, None) => (Vector3::zeros(), "gap_m".to_string(), "m"),
+        (ProbeQuantity::NormalForce, None) => (Vector3::zeros(), "normal_force_n".to_string(), "N"),
+        (ProbeQuantity::TangentialForce, None) => {
+            (Vector3::zeros(), "tangential_force_n".to_string(), "N")
+        }
+    };
+    Ok(Probe {
+        target,
+        quantity: s.quantity,
+        direction,
+        column: format!("{prefix}_{suffix}"),
+        unit,
+    })
+}
+
+fn blade_prefix(blade: usize, name: String) -> String {
+    if blade == 0 {
+        name
+    } else {
+        format!("blade{blade}_{name}")
+    }
+}
+
+fn check_blade(blade: Option<usize>, imp: &CyclicRom) -> Result<usize, FieldError> {
+    let b = blade.unwrap_or(0);
+    check_index("blade", b, imp.n_sectors, "blades")?;
+    Ok(b)
+}
+
+fn check_index(field: &'static str, i: usize, n: usize, what: &str) -> Result<(), FieldError> {
+    if i < n {
+        Ok(())
+    } else {
+        Err((
+            field,
+            format!("{i} does not exist: the model has {n} {what} (0..{n})"),
+        ))
+    }
+}
+
+fn recovery_index(rec: &Recovery, id: usize) -> Result<usize, FieldError> {
+    rec.position_of(id).ok_or_else(|| {
+        let ids: Vec<usize> = rec.nodes.iter().map(|n| n.id).collect();
+        let reason = if ids.is_empty() {
+            format!(
+                "node {id} cannot be recovered: the impeller ROM has no recovery nodes (list \
+                 it in the import spec's `recovery_nodes` and import again)"
+            )
+        } else {
+            format!("node {id} is not a recovery node of the impeller ROM (it has {ids:?})")
+        };
+        ("node", reason)
+    })
+}
+
+fn contact_id_reason(id: usize, imp: &CyclicRom) -> String {
+    let ids: Vec<usize> = imp.contact_nodes.iter().filter_map(|c| c.id).collect();
+    if ids.is_empty() {
+        format!(
+            "contact node {id}: the impeller's contact nodes carry no FE ids (built-in or \
+             format-1 model); address them by `blade` and `row`"
+        )
+    } else {
+        format!("{id} is not a contact node of the impeller (its contact nodes are {ids:?})")
+    }
+}
+
+/// Evaluates recovery rows on the harmonic state of a structure: the displacement (m, sector
+/// frame) of a recovery node in sector `s`,
+/// `u = Σ_k w_k [cos kθ_s (R_re a + R_im b) + sin kθ_s (R_re b − R_im a)]` with `(a, b)` the
+/// real-form coordinates of nodal diameter k (`x̃ = a − i b`, `ũ = R x̃`, `u_s = Re(ũ e^{ikθ_s})`,
+/// DESIGN §2.2) and `w_k` the weight of the orthonormal sector DFT.
+#[derive(Clone, Debug)]
+pub struct RecoveryEval {
+    n_sectors: usize,
+    /// Per nodal diameter: offset of its real-form vector, part size n, real flag, w_k.
+    blocks: Vec<(usize, usize, bool, f64)>,
+}
+
+impl RecoveryEval {
+    /// From the block layout of a [`crate::dynamics::structure::Structure`].
+    pub fn new(st: &crate::dynamics::structure::Structure) -> Self {
+        Self {
+            n_sectors: st.n_sectors,
+            blocks: st
+                .blocks
+                .iter()
+                .map(|b| (b.offset, b.n, b.real, st.dft_weight(b.k)))
+                .collect(),
+        }
+    }
+
+    /// Displacement of recovery node `index` in sector `sector` for the harmonic state `x`
+    /// (concatenated real-form vectors, see [`crate::dynamics::kernel::StructureKernel::harmonic_state`]).
+    pub fn displacement(
+        &self,
+        rec: &Recovery,
+        index: usize,
+        sector: usize,
+        x: &[f64],
+    ) -> Vector3<f64> {
+        let mut u = Vector3::zeros();
+        let alpha = std::f64::consts::TAU / self.n_sectors as f64;
+        for (k, (&(off, n, real, w), rows)) in self.blocks.iter().zip(&rec.rows).enumerate() {
+            let th = ((k * sector) % self.n_sectors) as f64 * alpha;
+            let (c, s) = (th.cos(), th.sin());
+            let a = &x[off..off + n];
+            for d in 0..3 {
+                let r = 3 * index + d;
+                let dot = |m: &nalgebra::DMatrix<f64>, v: &[f64]| -> f64 {
+                    v.iter().enumerate().map(|(j, vj)| m[(r, j)] * vj).sum()
+                };
+                u[d] += w * c * dot(&rows.re, a);
+                if !real {
+                    let b = &x[off + n..off + 2 * n];
+                    u[d] += w * (c * dot(&rows.im, b) + s * (dot(&rows.re, b) - dot(&rows.im, a)));
+                }
+            }
+        }
+        u
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixtures::{SyntheticSpec, synthetic_rom};
+    use crate::model::rom::{ComplexRows, Component, RecoveryNode};
+
+    /// A 3-blade impeller with FE ids 188, 190 on its contact nodes and recovery node 1353.
+    fn impeller() -> CyclicRom {
+        let mut imp = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 3, 2, 1));
+        imp.contact_nodes[0].id = Some(188);
+        imp.contact_nodes[1].id = Some(190);
+        let rows = imp
+            .harmonics
+            .iter()
+            .map(|h| ComplexRows {
+                re: nalgebra::DMatrix::zeros(3, h.mass.size()),
+                im: nalgebra::DMatrix::zeros(3, h.mass.size()),
+            })
+            .collect();
+        imp.recovery = Recovery {
+            nodes: vec![RecoveryNode {
+                id: 1353,
+                position: [0.0, 0.2, 0.0],
+            }],
+            rows,
+        };
+        imp
+    }
+
+    fn spec(json: serde_json::Value) -> ProbeSpec {
+        serde_json::from_value(json).unwrap()
+    }
+
+    #[test]
+    fn probes_resolve_to_named_columns_and_directions() {
+        let imp = impeller();
+        let cas = synthetic_rom(&SyntheticSpec::small(Component::Casing, 4, 3, 1));
+        let specs = [
+            spec(serde_json::json!({"node": 1353, "quantity": "displacement", "component": "y"})),
+            spec(serde_json::json!({"contact_node": 188, "quantity": "gap"})),
+            spec(serde_json::json!({"contact_node": 190, "blade": 2, "quantity": "normal_force"})),
+            spec(serde_json::json!({"blade": 1, "row": 1, "quantity": "tangential_force"})),
+            spec(
+                serde_json::json!({"sector": 3, "row": 2, "quantity": "displacement", "component": "radial"}),
+            ),
+            spec(
+                serde_json::json!({"node": 1353, "quantity": "displacement", "component": "tangential"}),
+            ),
+        ];
+        let p = resolve_probes(&specs, &imp, Some(&cas)).unwrap();
+        let cols: Vec<&str> = p.iter().map(|p| p.column.as_str()).collect();
+        assert_eq!(
+            cols,
+            [
+                "node1353_y_m",
+                "contact188_gap_m",
+                "blade2_contact190_normal_force_n",
+                "blade1_row1_tangential_force_n",
+                "casing3_row2_radial_m",
+                "node1353_tangential_m",
+            ]
+        );
+        let units: Vec<&str> = p.iter().map(|p| p.unit).collect();
+        assert_eq!(units, ["m", "m", "N", "N", "m", "m"]);
+        assert_eq!(p[2].target, ProbeTarget::Blade { blade: 2, index: 1 });
+        // Node 1353 sits on +y: its tangential direction is −x.
+        assert!((p[5].direction - Vector3::new(-1.0, 0.0, 0.0)).norm() < 1e-15);
+    }
+
+    #[test]
+    fn nonexistent_nodes_and_wrong_quantities_name_their_field() {
+        let imp = impeller();
+        let bad = |json: serde_json::Value, casing: Option<&CyclicRom>| {
+            resolve_probes(&[spec(json)], &imp, casing).unwrap_err()
+        };
+        let e = bad(
+            serde_json::json!({"node": 7, "quantity": "displacement", "component": "y"}),
+            None,
+        );
+        assert_eq!(e.field, "node");
+        assert!(e.reason.contains("[1353]"), "{e}");
+        let e = bad(
+            serde_json::json!({"contact_node": 5, "quantity": "gap"}),
+            None,
+        );
+        assert_eq!(e.field, "contact_node");
+        assert!(e.reason.contains("[188, 190]"), "{e}");
+        let e = bad(
+            serde_json::json!({"blade": 3, "row": 0, "quantity": "gap"}),
+            None,
+        );
+        assert_eq!(e.field, "blade");
+        let e = bad(
+            serde_json::json!({"sector": 0, "row": 0, "quantity": "displacement", "component": "x"}),
+            None,
+        );
+        assert!(e.field == "sector" && e.reason.contains("flexible"), "{e}");
+        let e = bad(serde_json::json!({"node": 1353, "quantity": "gap"}), None);
+        assert_eq!(e.field, "quantity");
+        let e = bad(
+            serde_json::json!({"contact_node": 188, "quantity": "displacement"}),
+            None,
+        );
+        assert_eq!(e.field, "component");
+        let e = bad(
+            serde_json::json!({"contact_node": 188, "quantity": "gap", "component": "x"}),
+            None,
+        );
+        assert_eq!(e.field, "component");
+        let e = bad(
+            serde_json::json!({"node": 1353, "contact_node": 188, "quantity": "gap"}),
+            None,
+        );
+        assert_eq!(e.field, "");
+        // A model without recovery rows says how to get them.
+        let mut plain = impeller();
+        plain.recovery = Recovery::default();
+        let e = resolve_probes(
+            &[spec(
+                serde_json::json!({"node": 1353, "quantity": "displacement", "component": "y"}),
+            )],
+            &plain,
+            None,
+        )
+        .unwrap_err();
+        assert!(e.reason.contains("recovery_nodes"), "{e}");
+    }
 }

@@ -8,7 +8,7 @@
 //! the same case gives the same states whatever the decimation or the recorder.
 
 use crate::dynamics::kernel::Energies;
-use crate::dynamics::probes::{EnergySeries, RunSummary, SimulationOutput};
+use crate::dynamics::probes::{EnergySeries, Probe, RunSummary, SimulationOutput};
 
 /// The probes of one sample step, SI units, borrowed from the simulation. Per-blade slices
 /// have one entry per blade.
@@ -40,6 +40,10 @@ pub struct Sample<'a> {
     pub impeller_nd_strain_energy: &'a [f64],
     /// The abradable coating's probes; `None` without a coating.
     pub coating: Option<CoatingSample<'a>>,
+    /// The probes the case selects (`Case::probes`, in its order) and their values (m or N,
+    /// see [`Probe::unit`]), one per probe.
+    pub probe_columns: &'a [Probe],
+    pub probes: &'a [f64],
 }
 
 /// The coating probes of one sample step.
@@ -132,6 +136,7 @@ impl Recorder for SeriesRecorder {
             push_each(&mut o.coating_max_wear, c.max_wear);
             push_each(&mut o.coating_blade_force, c.blade_force);
         }
+        push_each(&mut o.probes, s.probes);
         Ok(())
     }
 }

@@ -4,6 +4,7 @@
 use crate::contact::ImposedGap;
 use crate::dynamics::abradable::{CoatingLayer, CoatingMaterial};
 use crate::dynamics::numerics::Numerics;
+use crate::dynamics::probes::ProbeSpec;
 use crate::model::rom::CyclicRom;
 use serde::{Deserialize, Serialize};
 
@@ -141,6 +142,9 @@ pub struct Case {
     /// Casing contact nodes `[sector, node]` whose radial displacement is recorded.
     #[serde(default)]
     pub casing_probes: Vec<[usize; 2]>,
+    /// Probes of contact and recovery nodes (see [`ProbeSpec`]), recorded in this order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probes: Vec<ProbeSpec>,
     /// Initial velocities (tests and special studies).
     #[serde(default)]
     pub initial_velocity: InitialVelocity,

@@ -20,12 +20,16 @@ use crate::dynamics::imposed_casing::ImposedCasing;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
 use crate::dynamics::numerics::KernelChoice;
-use crate::dynamics::probes::{CoatingOutput, RunSummary, SimulationOutput, Stage, StageClock};
+use crate::dynamics::probes::{
+    CoatingOutput, Probe, ProbeQuantity, ProbeTarget, RecoveryEval, RunSummary, SimulationOutput,
+    Stage, StageClock, resolve_probes,
+};
 use crate::dynamics::recorder::{CoatingSample, RecordError, Recorder, Sample, SeriesRecorder};
 use crate::dynamics::scenario::{Case, CasingModel, CoatingCase};
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::model::cyclic::rot_z;
 use crate::model::rom::CyclicRom;
+use crate::model::rom::Recovery;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use nalgebra::{Matrix3, Vector3};
@@ -615,6 +619,12 @@ pub struct Simulation<'a> {
     te: Vec<f64>,
     casing_radial: Vec<f64>,
     nd_energy: Vec<f64>,
+    /// The case's probes and their values at the sample step.
+    probes: Vec<Probe>,
+    probe_values: Vec<f64>,
+    /// The impeller's recovery rows, their evaluator and its harmonic-state buffer (only when
+    /// a probe reads a recovery node).
+    recovery: Option<(Recovery, RecoveryEval, Vec<f64>)>,
 }
 
 impl<'a> Simulation<'a> {
@@ -632,6 +642,12 @@ impl<'a> Simulation<'a> {
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
         let (limit, steps_per_revolution) = check_stability(case, &st_i, st_c.as_ref())?;
+        let casing_rom = match casing {
+            CasingModel::Flexible(rom) => Some(rom),
+            CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
+        };
+        let probes = resolve_probes(&case.probes, impeller, casing_rom)
+            .map_err(|e| SimError::InvalidCase(e.to_string()))?;
         let h = case.numerics.time_step;
         let mut blades = Blades::new(case, impeller, &st_i)?;
         let mut casing = match casing {
@@ -710,6 +726,13 @@ impl<'a> Simulation<'a> {
         };
         let n_blades = blades.n_blades;
         let n_nd = st_i.blocks.len();
+        let recovery = probes
+            .iter()
+            .any(|p| matches!(p.target, ProbeTarget::Recovery { .. }))
+            .then(|| {
+                let eval = RecoveryEval::new(&st_i);
+                (impeller.recovery.clone(), eval, vec![0.0; st_i.n_modal])
+            });
         Ok(Self {
             summary: RunSummary {
                 time_step: h,
@@ -735,6 +758,9 @@ impl<'a> Simulation<'a> {
             te: vec![0.0; n_blades],
             casing_radial: vec![0.0; case.casing_probes.len()],
             nd_energy: vec![0.0; n_nd],
+            probe_values: vec![0.0; probes.len()],
+            probes,
+            recovery,
         })
     }
 
@@ -1019,6 +1045,9 @@ impl<'a> Simulation<'a> {
         let c = &mut self.contact;
         let nbi = self.blades.nb;
         c.fi.iter_mut().for_each(|x| *x = 0.0);
+        if c.lambda[..c.cands.len()].iter().any(|&l| l != 0.0) {
+            self.summary.closed_contact_steps += 1;
+        }
         for (cd, &l) in c.cands.iter().zip(&c.lambda) {
             if l == 0.0 {
                 continue;
@@ -1227,6 +1256,8 @@ impl<'a> Simulation<'a> {
             }
             casing_energy = Some(k.energies());
         }
+        self.probe_values()?;
+        let b = &self.blades;
         let s = &mut self.summary;
         s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
         let ki = b.kernel.get();
@@ -1247,10 +1278,117 @@ impl<'a> Simulation<'a> {
                 max_wear: &c.max_wear_row,
                 blade_force: &c.blade_force,
             }),
+            probe_columns: &self.probes,
+            probes: &self.probe_values,
         };
         recorder.record(&sample).map_err(SimError::Record)?;
         self.clock.lap(Stage::Other);
         Ok(())
+    }
+
+    /// The values of the case's probes at the sample step (reads the state, never writes it).
+    fn probe_values(&mut self) -> Result<(), SimError> {
+        if self.probes.is_empty() {
+            return Ok(());
+        }
+        let b = &self.blades;
+        if let Some((_, _, x)) = self.recovery.as_mut() {
+            b.kernel.get().harmonic_state(x);
+        }
+        if let Some(f) = self.casing.flexible_mut()
+            && self
+                .probes
+                .iter()
+                .any(|p| matches!(p.target, ProbeTarget::Casing { .. }))
+        {
+            f.kernel.get_mut().node_displacements(&mut f.nodes);
+        }
+        for i in 0..self.probes.len() {
+            self.probe_values[i] = self.probe_value(i)?;
+        }
+        Ok(())
+    }
+
+    /// The value of probe `i` (m or N).
+    fn probe_value(&mut self, i: usize) -> Result<f64, SimError> {
+        let p = &self.probes[i];
+        let b = &self.blades;
+        Ok(match (p.target, p.quantity) {
+            (ProbeTarget::Recovery { blade, index }, _) => {
+                let (rec, eval, x) = self.recovery.as_ref().expect("recovery probes");
+                p.direction.dot(&eval.displacement(rec, index, blade, x))
+            }
+            (ProbeTarget::Casing { sector, index }, _) => {
+                let flexible = self
+                    .casing
+                    .surface()
+                    .and_then(|cs| Some((cs.flexible.as_ref()?, cs.rows)));
+                let Some((f, rows)) = flexible else {
+                    return Err(SimError::InvalidCase(format!(
+                        "probe `{}` needs a flexible casing",
+                        p.column
+                    )));
+                };
+                p.direction
+                    .dot(&node_disp(&f.nodes, sector, 3 * rows, index))
+            }
+            (ProbeTarget::Blade { blade, index }, q) => {
+                let node = blade * b.n_contact + index;
+                let cand = self.contact.cands.iter().position(|c| c.node == node);
+                let lambda = cand.map_or(0.0, |k| self.contact.lambda[k]);
+                match q {
+                    ProbeQuantity::Displacement => {
+                        let ub = b.kernel.get().boundary();
+                        p.direction.dot(&node_disp(ub, blade, b.nb, index))
+                    }
+                    ProbeQuantity::NormalForce => lambda,
+                    ProbeQuantity::TangentialForce => {
+                        let slip = cand.is_some_and(|k| self.contact.cands[k].slip);
+                        if slip {
+                            self.case.friction * lambda
+                        } else {
+                            0.0
+                        }
+                    }
+                    ProbeQuantity::Gap => self.probe_gap(node)?,
+                }
+            }
+        })
+    }
+
+    /// Gap (m) of blade-tip node `node` after the step: its corrected position projected on
+    /// the casing surface after the correction (the one the residual check uses), from its
+    /// warm start; exact, where the step's `d*` is predicted (and stale for nodes the
+    /// projector skipped as far). Scratch buffers only: the state is not changed.
+    fn probe_gap(&mut self, node: usize) -> Result<f64, SimError> {
+        let cs = match &self.casing {
+            Casing::Surface(cs) => cs,
+            Casing::Imposed(imposed) => {
+                return Ok(imposed.gap(node, self.t1, self.blades.kernel.get().boundary()));
+            }
+        };
+        let fast = matches!(
+            cs.flexible.as_ref().map(|f| &f.kernel),
+            Some(Kernel::Modal { .. })
+        );
+        // `advance` has moved a flexible casing's surface of this step to `past.q`.
+        let q = match (&cs.flexible, fast && !self.contact.cands.is_empty()) {
+            (None, _) => &cs.q,
+            (Some(_), true) => &cs.q_corrected,
+            (Some(_), false) => &cs.past.q,
+        };
+        let p = &mut self.projector;
+        p.res_warm[0] = p.warm[node];
+        let found = project_nodes(
+            &cs.spline,
+            q,
+            &self.blades.nodes[node..node + 1],
+            &mut p.res_warm,
+            p.eps,
+            &mut p.res_proj,
+        );
+        found.map_err(projection_failed(self.t1))?;
+        Ok(p.res_proj[0].gap)
     }
 }
 
@@ -2023,6 +2161,7 @@ mod tests {
             }),
             clearance_offset: vec![],
             casing_probes: vec![[0, 2], [2, 2]],
+            probes: vec![],
             initial_velocity: InitialVelocity::default(),
             numerics: Numerics {
                 time_step: h,
@@ -2117,6 +2256,7 @@ mod tests {
             contact_nodes: vec![ContactNode {
                 position: [r0, 0.0, 0.0],
                 row: 0,
+                id: None,
             }],
             harmonics: vec![HarmonicBlock {
                 nodal_diameter: 0,
@@ -2131,6 +2271,7 @@ mod tests {
             modal_data: vec![],
             damping: Damping::Modal { ratio: 0.0 },
             provenance: serde_json::Value::Null,
+            recovery: Default::default(),
         };
         let casing = CasingModel::Rigid(RigidSurface {
             n_sectors: 64,
@@ -2150,6 +2291,7 @@ mod tests {
             load: None,
             clearance_offset: vec![],
             casing_probes: vec![],
+            probes: vec![],
             initial_velocity: InitialVelocity {
                 impeller: Some(vec![v0, 0.0, 0.0]),
                 casing: None,
@@ -2211,6 +2353,7 @@ mod tests {
             n_sectors: 1,
             contact_nodes: vec![ContactNode {
                 position: [r0, 0.0, 0.0],
+                id: None,
                 row: 0,
             }],
             harmonics: vec![HarmonicBlock {
@@ -2226,6 +2369,7 @@ mod tests {
             modal_data: vec![],
             damping: Damping::Modal { ratio: 0.0 },
             provenance: serde_json::Value::Null,
+            recovery: Default::default(),
         };
         let casing = CasingModel::ImposedGap(ImposedGap {
             profile: profile.clone(),
@@ -2239,6 +2383,7 @@ mod tests {
             load: None,
             clearance_offset: vec![],
             casing_probes: vec![],
+            probes: vec![],
             initial_velocity: InitialVelocity::default(),
             numerics: Numerics {
                 time_step: h,
@@ -2363,6 +2508,7 @@ mod tests {
             load: None,
             clearance_offset: vec![],
             casing_probes: vec![],
+            probes: vec![],
             initial_velocity: InitialVelocity {
                 impeller: Some(v),
                 casing: None,

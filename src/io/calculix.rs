@@ -668,6 +668,10 @@ pub struct CalculixImportSpec {
     /// Damping stored in the ROM.
     #[serde(default)]
     pub damping: Damping,
+    /// FE node ids whose displacement the ROM can recover (rows of the reduction basis kept
+    /// in the ROM, see [`crate::model::rom::Recovery`]); probes may then name them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub recovery_nodes: Vec<usize>,
 }
 
 impl CalculixImportSpec {
@@ -691,6 +695,7 @@ impl CalculixImportSpec {
             n_modes,
             units,
             damping: Damping::default(),
+            recovery_nodes: Vec::new(),
         }
     }
 }
@@ -782,6 +787,7 @@ pub(crate) struct ImportCommon<'a> {
     pub n_modes: usize,
     pub units: Units,
     pub damping: Damping,
+    pub recovery_nodes: &'a [usize],
 }
 
 /// The [`ImportCommon`] of an import spec (the fields of that name).
@@ -797,6 +803,7 @@ macro_rules! import_common {
             n_modes: $spec.n_modes,
             units: $spec.units,
             damping: $spec.damping,
+            recovery_nodes: &$spec.recovery_nodes,
         }
     };
 }
@@ -819,6 +826,23 @@ pub(crate) fn reduce_imported(
     let (nodes, sets) = (&mesh.nodes, &mesh.node_sets);
     let contacts = &contact_points(common.contact, nodes, sets, mesh_path, length)?;
     check_contact_dofs(contacts, &dofs, common.dof_map)?;
+    let recovery_nodes = common
+        .recovery_nodes
+        .iter()
+        .enumerate()
+        .map(|(i, &node)| {
+            let x = nodes.get(&node).ok_or_else(|| {
+                ImportError::Spec(format!(
+                    "recovery_nodes[{i}] = {node}: no such node in {}",
+                    mesh_path.display()
+                ))
+            })?;
+            Ok(ContactPoint {
+                node,
+                position: x.map(|c| c * length),
+            })
+        })
+        .collect::<Result<Vec<_>, ImportError>>()?;
     let n = dofs.len();
     let stiffness = read(common.stiffness, n, common.units.stiffness_factor())?;
     let mass = read(common.mass, n, common.units.mass_factor())?;
@@ -832,6 +856,7 @@ pub(crate) fn reduce_imported(
         component: common.component,
         n_modes: common.n_modes,
         damping: common.damping,
+        recovery_nodes,
         ..Default::default()
     };
     let (mats, opts) = (&mats, &opts);
@@ -841,6 +866,7 @@ pub(crate) fn reduce_imported(
         "spec": spec,
         "n_fe_dofs": mats.dofs.len(),
         "contact_node_ids": contacts.iter().map(|c| c.node).collect::<Vec<_>>(),
+        "recovery_node_ids": common.recovery_nodes,
         "reduction": "Craig-Bampton, fixed interface at the contact nodes",
     });
     rom.validate()?;

@@ -237,6 +237,10 @@ pub struct MatrixMarketImportSpec {
     /// Damping stored in the ROM.
     #[serde(default)]
     pub damping: Damping,
+    /// Node ids whose displacement the ROM can recover (see
+    /// [`crate::io::calculix::CalculixImportSpec::recovery_nodes`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub recovery_nodes: Vec<usize>,
 }
 
 /// Imports a Matrix Market model and reduces it to a one-sector [`CyclicRom`] (SI units, at
@@ -356,6 +360,7 @@ mod tests {
             n_modes: 40,
             units: Units::MmTonneSecond,
             damping: Damping::default(),
+            recovery_nodes: vec![],
         };
         let rom = import_matrix_market(&spec).unwrap();
         assert_eq!(rom.contact_nodes[2].position, [0.3, 0.0, 0.0]);
@@ -383,6 +388,120 @@ mod tests {
         for (a, b) in f.iter().zip(&si.modal_data[0].frequencies[0]) {
             assert_relative_eq!(*a, *b, max_relative = 1e-9);
         }
+    }
+
+    /// The chain of `n` nodes written as a Matrix Market model in SI units, contact nodes
+    /// `contact`, `n_modes` modes and recovery nodes `recovery`; with its dense K, M.
+    fn chain_spec(
+        tag: &str,
+        n: usize,
+        contact: Vec<usize>,
+        n_modes: usize,
+        recovery: Vec<usize>,
+    ) -> (MatrixMarketImportSpec, DMatrix<f64>, DMatrix<f64>) {
+        let d = scratch(tag);
+        let (k, m, dofs) = chain(n);
+        let dof_text: String = dofs.iter().map(|(a, b)| format!("{a} {b}\n")).collect();
+        let nodes: String = (1..=n)
+            .map(|i| format!("{i} {} 0 0\n", 0.01 * i as f64))
+            .collect();
+        let spec = MatrixMarketImportSpec {
+            name: "chain".into(),
+            component: Component::Impeller,
+            stiffness: write(&d, "K.mtx", &mtx(&k, true)),
+            mass: write(&d, "M.mtx", &mtx(&m, true)),
+            dof_map: write(&d, "dofs.txt", &dof_text),
+            nodes: write(&d, "nodes.txt", &nodes),
+            contact: ContactSelection::Nodes(contact),
+            n_modes,
+            units: Units::Si,
+            damping: Damping::default(),
+            recovery_nodes: recovery,
+        };
+        (spec, k, m)
+    }
+
+    /// Static load on the contact nodes: the recovered displacement of interior nodes equals
+    /// the full FE solution `K u = f` (dense LU of the full matrix, independent of the ROM).
+    /// Craig–Bampton spans this response exactly (constraint modes), so 1e-6 is a wide margin.
+    #[test]
+    fn recovered_static_response_equals_the_full_solution() {
+        let n = 30;
+        let recovery = vec![5, 15, 20, 27];
+        let (spec, k, _) = chain_spec("mm-rec", n, vec![10, 20, 30], 12, recovery.clone());
+        let rom = import_matrix_market(&spec).unwrap();
+        assert_eq!(rom.contact_nodes[1].id, Some(20));
+        assert_eq!(rom.recovery.nodes[2].position, [0.2, 0.0, 0.0]);
+        // Forces (N) on the contact nodes: one per DOF.
+        let fb = [3.0, -1.0, 2.0, 0.5, 4.0, -2.0, -1.5, 1.0, 6.0];
+        let mut f = nalgebra::DVector::zeros(3 * n);
+        for (j, node) in [10usize, 20, 30].iter().enumerate() {
+            for dir in 0..3 {
+                f[3 * (node - 1) + dir] = fb[3 * j + dir];
+            }
+        }
+        let u_full = k.clone().lu().solve(&f).unwrap();
+        let h = &rom.harmonics[0];
+        let nr = h.mass.size();
+        let mut g = nalgebra::DVector::zeros(nr);
+        g.rows_mut(0, 9).copy_from_slice(&fb);
+        let x = h.stiffness[0].re.clone().lu().solve(&g).unwrap();
+        let u_rec = &rom.recovery.rows[0].re * &x;
+        for (i, node) in recovery.iter().enumerate() {
+            for dir in 0..3 {
+                let (a, b) = (u_rec[3 * i + dir], u_full[3 * (node - 1) + dir]);
+                assert!(b.abs() > 0.0);
+                assert_relative_eq!(a, b, max_relative = 1e-6);
+            }
+        }
+    }
+
+    /// Every interior mode kept: the ROM's modes are the full model's, and their shapes
+    /// recovered at interior nodes equal the full eigenvectors there (up to sign).
+    #[test]
+    fn recovered_mode_shapes_equal_the_full_eigenvectors() {
+        let n = 8;
+        let recovery = vec![2, 6, 4];
+        let (spec, k, m) = chain_spec("mm-recmodes", n, vec![4, 8], 3 * n - 6, recovery.clone());
+        let rom = import_matrix_market(&spec).unwrap();
+        let (_, phi_full) = dense_modes(&k, &m, 4).unwrap();
+        let h = &rom.harmonics[0];
+        let (_, phi_rom) = dense_modes(&h.stiffness[0].re, &h.mass.re, 4).unwrap();
+        let shapes = &rom.recovery.rows[0].re * &phi_rom;
+        for p in 0..4 {
+            let full = |i: usize, dir: usize| phi_full[(3 * (recovery[i] - 1) + dir, p)];
+            // The sign from the largest recovered entry: a mode moves along one direction of
+            // the chain, so the others are round-off whose sign means nothing.
+            let at = (0..3 * recovery.len())
+                .max_by(|&a, &b| {
+                    full(a / 3, a % 3)
+                        .abs()
+                        .total_cmp(&full(b / 3, b % 3).abs())
+                })
+                .unwrap();
+            let sign = if shapes[(at, p)] * full(at / 3, at % 3) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            let scale = phi_full.column(p).amax();
+            for i in 0..recovery.len() {
+                for dir in 0..3 {
+                    let d = sign * shapes[(3 * i + dir, p)] - full(i, dir);
+                    assert!(
+                        d.abs() <= 1e-6 * scale,
+                        "mode {p} node {i} dir {dir}: {d:e}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn unknown_recovery_node_is_rejected_with_its_index() {
+        let (spec, _, _) = chain_spec("mm-recbad", 6, vec![3, 6], 4, vec![2, 99]);
+        let e = import_matrix_market(&spec).unwrap_err().to_string();
+        assert!(e.contains("recovery_nodes[1] = 99"), "{e}");
     }
 
     #[test]
@@ -414,6 +533,7 @@ mod tests {
             n_modes: 3 * n - 6,
             units: Units::Si,
             damping: Damping::default(),
+            recovery_nodes: vec![],
         };
         let rom = import_matrix_market(&spec).unwrap();
         let (f_ref, _) = dense_modes(&k, &m, 3 * n - 6).unwrap();
@@ -575,6 +695,7 @@ mod tests {
             n_modes: 2,
             units: Units::Si,
             damping: Damping::default(),
+            recovery_nodes: vec![],
         };
         // Mass of the wrong size.
         let e = import_matrix_market(&spec).unwrap_err().to_string();

@@ -16,8 +16,8 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::model::rom::{
-    Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData,
-    ROM_FORMAT_VERSION, RomError,
+    ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix,
+    ModalData, ROM_FORMAT_OLDEST_READ, ROM_FORMAT_VERSION, Recovery, RecoveryNode, RomError,
 };
 
 /// Value of the `format` metadata key.
@@ -60,6 +60,12 @@ struct RomMeta {
     modes_per_diameter: Vec<usize>,
     modal_omega_count: Vec<usize>,
     provenance: serde_json::Value,
+    /// FE node id of each contact node (imported models; format 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    contact_node_ids: Option<Vec<usize>>,
+    /// Ids of the recovery nodes (format 2; empty: no recovery matrix).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    recovery_node_ids: Vec<usize>,
 }
 
 const MATRIX_NAMES: [&str; 4] = ["mass", "k0", "k1", "k2"];
@@ -115,6 +121,23 @@ pub fn to_bytes(rom: &CyclicRom) -> Result<Vec<u8>, safetensors::SafeTensorError
             }
         }
     }
+    let rec = &rom.recovery;
+    if !rec.nodes.is_empty() {
+        push(
+            "recovery.position".into(),
+            vec![rec.nodes.len(), 3],
+            &mut rec.nodes.iter().flat_map(|n| n.position),
+        );
+        for (k, b) in rec.rows.iter().enumerate() {
+            for (part, d) in [("re", &b.re), ("im", &b.im)] {
+                push(
+                    format!("recovery.{k}.{part}"),
+                    vec![d.nrows(), d.ncols()],
+                    &mut row_major(d),
+                );
+            }
+        }
+    }
     for (k, md) in rom.modal_data.iter().enumerate() {
         let n_omega = md.omega.len();
         let n_p = md.frequencies.first().map_or(0, Vec::len);
@@ -148,6 +171,8 @@ pub fn to_bytes(rom: &CyclicRom) -> Result<Vec<u8>, safetensors::SafeTensorError
         modes_per_diameter: rom.harmonics.iter().map(|h| h.n_modes).collect(),
         modal_omega_count: rom.modal_data.iter().map(|m| m.omega.len()).collect(),
         provenance: rom.provenance.clone(),
+        contact_node_ids: nodes.iter().map(|n| n.id).collect(),
+        recovery_node_ids: rec.nodes.iter().map(|n| n.id).collect(),
     };
     let info = HashMap::from([
         ("format".to_string(), FORMAT_NAME.to_string()),
@@ -192,9 +217,14 @@ fn read_meta(bytes: &[u8], path: &Path) -> Result<RomMeta, RomFileError> {
         )));
     }
     let version = info.get("format_version").cloned().unwrap_or_default();
-    if version != ROM_FORMAT_VERSION.to_string() {
+    let readable = version
+        .parse::<u32>()
+        .is_ok_and(|v| (ROM_FORMAT_OLDEST_READ..=ROM_FORMAT_VERSION).contains(&v));
+    if !readable {
         return Err(layout(format!(
-            "format_version `{version}` is not supported (this rubscan reads {ROM_FORMAT_VERSION})"
+            "format_version `{version}` is not supported (this rubscan reads versions \
+             {ROM_FORMAT_OLDEST_READ} to {ROM_FORMAT_VERSION}): rebuild the file with \
+             `rubscan model build` (built-in model) or `rubscan model import` (imported model)"
         )));
     }
     let meta_json = info
@@ -212,6 +242,14 @@ fn read_meta(bytes: &[u8], path: &Path) -> Result<RomMeta, RomFileError> {
     {
         return Err(layout(format!(
             "metadata contact_rows[{i}] = {r}: a row index must be below the number of contact nodes ({n_c})"
+        )));
+    }
+    if let Some(ids) = &meta.contact_node_ids
+        && ids.len() != n_c
+    {
+        return Err(layout(format!(
+            "metadata contact_node_ids has {} entries, expected one per contact node ({n_c})",
+            ids.len()
         )));
     }
     Ok(meta)
@@ -256,9 +294,11 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
         .contact_rows
         .iter()
         .zip(positions.chunks_exact(3))
-        .map(|(&row, p)| ContactNode {
+        .enumerate()
+        .map(|(j, (&row, p))| ContactNode {
             position: [p[0], p[1], p[2]],
             row,
+            id: meta.contact_node_ids.as_ref().map(|ids| ids[j]),
         })
         .collect();
     let kmax = meta.n_sectors / 2;
@@ -294,6 +334,7 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
             stiffness: [read("k0")?, read("k1")?, read("k2")?],
         });
     }
+    let recovery = read_recovery(&meta, &harmonics, &tensor)?;
     let mut modal_data = Vec::with_capacity(meta.modal_omega_count.len());
     for (k, &n_omega) in meta.modal_omega_count.iter().enumerate() {
         let omega = tensor(&format!("modal.{k}.omega"), &[n_omega])?;
@@ -335,12 +376,55 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
         modal_data,
         damping: meta.damping,
         provenance: meta.provenance,
+        recovery,
     };
     rom.validate().map_err(|source| RomFileError::Invalid {
         path: path.into(),
         source,
     })?;
     Ok(rom)
+}
+
+/// Reads the named `F64` tensor of the expected shape (row-major values).
+type TensorReader<'a> = dyn Fn(&str, &[usize]) -> Result<Vec<f64>, RomFileError> + 'a;
+
+/// The recovery matrix of a file (format 2): `recovery.position` and one `recovery.{k}.{re,im}`
+/// block of `3 n_r × (3 n_c + n_m(k))` per harmonic, for the `recovery_node_ids` of the metadata.
+fn read_recovery(
+    meta: &RomMeta,
+    harmonics: &[HarmonicBlock],
+    tensor: &TensorReader<'_>,
+) -> Result<Recovery, RomFileError> {
+    let ids = &meta.recovery_node_ids;
+    if ids.is_empty() {
+        return Ok(Recovery::default());
+    }
+    let positions = tensor("recovery.position", &[ids.len(), 3])?;
+    let nodes = ids
+        .iter()
+        .zip(positions.chunks_exact(3))
+        .map(|(&id, p)| RecoveryNode {
+            id,
+            position: [p[0], p[1], p[2]],
+        })
+        .collect();
+    let nr = 3 * ids.len();
+    let rows = harmonics
+        .iter()
+        .enumerate()
+        .map(|(k, h)| {
+            let n = h.mass.size();
+            let part = |p: &str| {
+                tensor(&format!("recovery.{k}.{p}"), &[nr, n])
+                    .map(|v| DMatrix::from_row_slice(nr, n, &v))
+            };
+            Ok(ComplexRows {
+                re: part("re")?,
+                im: part("im")?,
+            })
+        })
+        .collect::<Result<_, RomFileError>>()?;
+    Ok(Recovery { nodes, rows })
 }
 
 #[cfg(test)]
@@ -382,10 +466,12 @@ mod tests {
                 ContactNode {
                     position: [0.1, 0.0, 0.0],
                     row: 0,
+                    id: None,
                 },
                 ContactNode {
                     position: [0.11, 0.0, 0.02],
                     row: 1,
+                    id: None,
                 },
             ],
             harmonics,
@@ -404,6 +490,7 @@ mod tests {
                 beta: 1e-6,
             },
             provenance: serde_json::json!({"test": true}),
+            recovery: Default::default(),
         }
     }
 
@@ -413,6 +500,102 @@ mod tests {
         let bytes = to_bytes(&rom).unwrap();
         let back = from_bytes(&bytes, Path::new("mem.rom")).unwrap();
         assert_eq!(back, rom);
+    }
+
+    /// `sample_rom` with FE ids on its contact nodes and a recovery matrix of two nodes.
+    fn sample_rom_with_recovery() -> CyclicRom {
+        let mut rom = sample_rom();
+        for (j, c) in rom.contact_nodes.iter_mut().enumerate() {
+            c.id = Some(100 + j);
+        }
+        let nr = 6;
+        rom.recovery = Recovery {
+            nodes: vec![
+                RecoveryNode {
+                    id: 7,
+                    position: [0.05, 0.01, 0.0],
+                },
+                RecoveryNode {
+                    id: 1353,
+                    position: [0.06, -0.01, 0.02],
+                },
+            ],
+            rows: rom
+                .harmonics
+                .iter()
+                .map(|h| {
+                    let n = h.mass.size();
+                    let re = DMatrix::from_fn(nr, n, |i, j| (i * n + j) as f64 * 0.25 - 1.0);
+                    let im = if rom_is_real(h.nodal_diameter) {
+                        DMatrix::zeros(nr, n)
+                    } else {
+                        DMatrix::from_fn(nr, n, |i, j| (i as f64 - j as f64) * 0.5)
+                    };
+                    ComplexRows { re, im }
+                })
+                .collect(),
+        };
+        rom
+    }
+
+    /// k = 0 and k = N/2 = 2 are the real harmonics of the 4-sector sample.
+    fn rom_is_real(k: usize) -> bool {
+        k == 0 || k == 2
+    }
+
+    /// `bytes` (a ROM file) with its header's `format_version` set to `version`.
+    fn with_version(bytes: &[u8], version: &str) -> Vec<u8> {
+        let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+        let mut header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+        header["__metadata__"]["format_version"] = serde_json::json!(version);
+        let text = header.to_string();
+        let mut out = (text.len() as u64).to_le_bytes().to_vec();
+        out.extend_from_slice(text.as_bytes());
+        out.extend_from_slice(&bytes[8 + n..]);
+        out
+    }
+
+    #[test]
+    fn recovery_matrix_and_contact_ids_round_trip() {
+        let rom = sample_rom_with_recovery();
+        assert_eq!(rom.validate(), Ok(()));
+        let bytes = to_bytes(&rom).unwrap();
+        let back = from_bytes(&bytes, Path::new("rec.rom")).unwrap();
+        assert_eq!(back, rom);
+        assert_eq!(back.recovery.position_of(1353), Some(1));
+        // A recovery block of the wrong width is named.
+        let mut bad = rom.clone();
+        bad.recovery.rows[1].re = DMatrix::zeros(6, 3);
+        let err = from_bytes(&to_bytes(&bad).unwrap(), Path::new("w.rom"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("w.rom:") && err.contains("recovery.1.re"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn version_1_file_is_read_without_recovery_and_unknown_versions_say_how_to_rebuild() {
+        // A version-1 file: the layout of today's file without the recovery tensors and ids.
+        let v1 = with_version(&to_bytes(&sample_rom()).unwrap(), "1");
+        let back = from_bytes(&v1, Path::new("old.rom")).unwrap();
+        assert_eq!(back, sample_rom());
+        assert!(back.recovery.nodes.is_empty());
+        assert!(back.contact_nodes.iter().all(|c| c.id.is_none()));
+        for version in ["0", "3", "x"] {
+            let bytes = with_version(&to_bytes(&sample_rom()).unwrap(), version);
+            let err = from_bytes(&bytes, Path::new("new.rom"))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.starts_with("new.rom:")
+                    && err.contains(&format!("format_version `{version}`"))
+                    && err.contains("rubscan model build")
+                    && err.contains("rubscan model import"),
+                "{err}"
+            );
+        }
     }
 
     #[test]

@@ -15,23 +15,27 @@ use parquet::file::properties::WriterProperties;
 use crate::dynamics::recorder::{RecordError, Recorder, Sample};
 use crate::io::atomic::AtomicFile;
 
-/// The name of a time-series column: `name`, or `{prefix}{index}_{suffix}`.
-enum ColumnName {
+/// The name of a time-series column: `name`, `{prefix}{index}_{suffix}`, or a probe's own
+/// column name (see [`crate::dynamics::probes::Probe::column`]).
+enum ColumnName<'a> {
     Plain(&'static str),
     Indexed(&'static str, usize, &'static str),
+    Probe(&'a str),
 }
 
-impl ColumnName {
+impl ColumnName<'_> {
     fn text(&self) -> String {
         match self {
             ColumnName::Plain(n) => (*n).to_string(),
             ColumnName::Indexed(p, i, s) => format!("{p}{i}_{s}"),
+            ColumnName::Probe(n) => (*n).to_string(),
         }
     }
 }
 
-/// Calls `f` with the name, unit and value of every column of a sample, in table order.
-fn each_column(s: &Sample<'_>, mut f: impl FnMut(ColumnName, &'static str, f64)) {
+/// Calls `f` with the name, unit and value of every column of a sample, in table order; the
+/// case's probes come last, in the case's order.
+fn each_column<'a>(s: &Sample<'a>, mut f: impl FnMut(ColumnName<'a>, &'static str, f64)) {
     f(ColumnName::Plain("time_s"), "s", s.time);
     let mut per = |prefix, suffix, unit, values: &[f64]| {
         for (i, v) in values.iter().enumerate() {
@@ -69,6 +73,9 @@ fn each_column(s: &Sample<'_>, mut f: impl FnMut(ColumnName, &'static str, f64))
     if let Some(e) = s.casing_energy {
         f(ColumnName::Plain("casing_kinetic_energy_j"), "J", e.kinetic);
         f(ColumnName::Plain("casing_strain_energy_j"), "J", e.strain);
+    }
+    for (p, v) in s.probe_columns.iter().zip(s.probes) {
+        f(ColumnName::Probe(&p.column), p.unit, *v);
     }
 }
 
@@ -211,6 +218,8 @@ mod tests {
                 casing_energy: None,
                 impeller_nd_strain_energy: &nd,
                 coating: None,
+                probe_columns: &[],
+                probes: &[],
             };
             w.record(&s).unwrap();
         };
@@ -252,6 +261,84 @@ mod tests {
         }
         let expect: Vec<f64> = (0..n).map(|i| sample(i).1[1]).collect();
         assert_eq!(values, expect);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The case's probes get one column each, after the built-in ones, named by node and
+    /// component with their unit in the field metadata; the values are the probes'.
+    #[test]
+    fn probe_columns_are_named_by_node_and_carry_their_units() {
+        use crate::dynamics::kernel::Energies;
+        use crate::dynamics::probes::{Probe, ProbeQuantity, ProbeTarget};
+        let dir = std::env::temp_dir().join(format!("rubscan-tsp-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let path = dir.join("p.parquet");
+        let probe = |column: &str, unit, quantity| Probe {
+            target: ProbeTarget::Blade { blade: 0, index: 0 },
+            quantity,
+            direction: nalgebra::Vector3::y(),
+            column: column.into(),
+            unit,
+        };
+        let probes = [
+            probe("node1353_y_m", "m", ProbeQuantity::Displacement),
+            probe("contact188_gap_m", "m", ProbeQuantity::Gap),
+            probe("contact188_normal_force_n", "N", ProbeQuantity::NormalForce),
+        ];
+        let mut w = TimeSeriesWriter::create(&path).unwrap();
+        for i in 0..5 {
+            let values = [1e-6 * i as f64, -2e-6, 10.0 * i as f64];
+            let s = Sample {
+                time: i as f64,
+                blade_le_radial: &[0.0],
+                blade_te_radial: &[0.0],
+                casing_radial: &[],
+                blade_normal_force: &[0.0],
+                blade_tangential_force: &[0.0],
+                min_gap: 0.0,
+                residual_penetration: 0.0,
+                impeller_energy: Energies::default(),
+                casing_energy: None,
+                impeller_nd_strain_energy: &[],
+                coating: None,
+                probe_columns: &probes,
+                probes: &values,
+            };
+            w.record(&s).unwrap();
+        }
+        w.finish().unwrap();
+        let reader =
+            ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(&path).unwrap()).unwrap();
+        let schema = reader.schema().clone();
+        let n = schema.fields().len();
+        let names: Vec<&str> = schema.fields()[n - 3..]
+            .iter()
+            .map(|f| f.name().as_str())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "node1353_y_m",
+                "contact188_gap_m",
+                "contact188_normal_force_n"
+            ]
+        );
+        let units: Vec<&str> = schema.fields()[n - 3..]
+            .iter()
+            .map(|f| f.metadata()["unit"].as_str())
+            .collect();
+        assert_eq!(units, ["m", "m", "N"]);
+        let batch = reader.build().unwrap().next().unwrap().unwrap();
+        let col = |i: usize| {
+            let c = batch
+                .column(i)
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .unwrap();
+            c.values().to_vec()
+        };
+        assert_eq!(col(n - 1), [0.0, 10.0, 20.0, 30.0, 40.0]);
+        assert_eq!(col(n - 2), [-2e-6; 5]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -35,7 +35,8 @@
 
 use crate::model::eigen::symmetric_gen_eigen;
 use crate::model::rom::{
-    Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData,
+    ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix,
+    ModalData, Recovery, RecoveryNode,
 };
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::prelude::*;
@@ -97,6 +98,9 @@ pub struct ComponentReductionOptions {
     /// reduction basis (the reduced matrices are the exact projections) and Ritz values are
     /// accurate to the square of the residual, so 1e-5 is ample.
     pub eigen_tolerance: f64,
+    /// FE nodes whose rows of the reduction basis `T` are kept in the ROM (its
+    /// [`Recovery`]), so that their displacement can be recovered from the ROM coordinates.
+    pub recovery_nodes: Vec<ContactPoint>,
 }
 
 impl Default for ComponentReductionOptions {
@@ -107,6 +111,7 @@ impl Default for ComponentReductionOptions {
             n_modes: 20,
             damping: Damping::default(),
             eigen_tolerance: 1e-5,
+            recovery_nodes: Vec::new(),
         }
     }
 }
@@ -127,6 +132,10 @@ pub enum ComponentError {
     ContactDofMissing { node: usize, axis: char },
     #[error("contact node {node} is listed twice")]
     DuplicateContactNode { node: usize },
+    #[error("recovery node {node} has no DOF in the model (clamped or absent from the DOF map)")]
+    RecoveryNodeMissing { node: usize },
+    #[error("recovery node {node} is listed twice")]
+    DuplicateRecoveryNode { node: usize },
     #[error("no contact nodes given")]
     NoContactNodes,
     #[error("n_modes = {n_modes}: must be between 1 and the {n_interior} interior DOFs")]
@@ -833,6 +842,7 @@ pub fn reduce_component(
     drop(phi);
     let k_r = project(&mats.stiffness, t.as_ref());
     let m_r = project(&mats.mass, t.as_ref());
+    let recovery = recovery_rows(&index, t.as_ref(), &opts.recovery_nodes)?;
     drop(t);
 
     let (freqs, shapes) = dense_modes(&k_r, &m_r, opts.n_modes)?;
@@ -851,6 +861,7 @@ pub fn reduce_component(
             .map(|(row, c)| ContactNode {
                 position: c.position,
                 row,
+                id: Some(c.node),
             })
             .collect(),
         harmonics: vec![HarmonicBlock {
@@ -872,6 +883,53 @@ pub fn reduce_component(
         }],
         damping: opts.damping,
         provenance: serde_json::Value::Null,
+        recovery,
+    })
+}
+
+/// The rows `T(node dofs, :)` of the reduction basis for each of `nodes` (x, y, z of the model
+/// frame, node-major); a DOF absent from the DOF map is clamped, its row zero. A node none of
+/// whose DOFs is in the model is refused (most likely a wrong id).
+fn recovery_rows(
+    index: &HashMap<NodeDof, usize>,
+    t: MatRef<'_, f64>,
+    nodes: &[ContactPoint],
+) -> Result<Recovery, ComponentError> {
+    if nodes.is_empty() {
+        return Ok(Recovery::default());
+    }
+    let nr = 3 * nodes.len();
+    let mut re = DMatrix::zeros(nr, t.ncols());
+    let mut seen = std::collections::HashSet::new();
+    for (i, p) in nodes.iter().enumerate() {
+        if !seen.insert(p.node) {
+            return Err(ComponentError::DuplicateRecoveryNode { node: p.node });
+        }
+        let mut any = false;
+        for dir in 0..3 {
+            if let Some(&g) = index.get(&NodeDof { node: p.node, dir }) {
+                any = true;
+                for c in 0..t.ncols() {
+                    re[(3 * i + dir, c)] = t[(g, c)];
+                }
+            }
+        }
+        if !any {
+            return Err(ComponentError::RecoveryNodeMissing { node: p.node });
+        }
+    }
+    Ok(Recovery {
+        nodes: nodes
+            .iter()
+            .map(|p| RecoveryNode {
+                id: p.node,
+                position: p.position,
+            })
+            .collect(),
+        rows: vec![ComplexRows {
+            im: DMatrix::zeros(nr, t.ncols()),
+            re,
+        }],
     })
 }
 

@@ -222,6 +222,7 @@ pub(crate) fn reduce_sector_model(
         .map(|(row, &n)| ContactNode {
             position: model.nodes[n],
             row,
+            id: None,
         })
         .collect();
     let provenance = serde_json::json!({
@@ -242,6 +243,7 @@ pub(crate) fn reduce_sector_model(
         modal_data,
         damping: opts.damping,
         provenance,
+        recovery: Default::default(),
     };
     rom.validate()?;
     Ok(rom)

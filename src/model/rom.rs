@@ -24,7 +24,11 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// Version of the ROM data layout; bumped on any incompatible change.
-pub const ROM_FORMAT_VERSION: u32 = 1;
+pub const ROM_FORMAT_VERSION: u32 = 2;
+
+/// Oldest ROM format version still read: version 1 files (no recovery matrix, no FE node ids of
+/// the contact nodes) load with an empty [`Recovery`].
+pub const ROM_FORMAT_OLDEST_READ: u32 = 1;
 
 /// Which structure a ROM describes: it decides the frame (rotating or fixed).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -122,6 +126,48 @@ pub struct ContactNode {
     pub position: [f64; 3],
     /// Index of the node along the meridian / blade tip, 0 = leading edge.
     pub row: usize,
+    /// Node id in the FE model the ROM was imported from (`None` for built-in models).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<usize>,
+}
+
+/// An FE node whose displacement can be recovered from the ROM coordinates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecoveryNode {
+    /// Node id (FE model id for imported models; documented numbering for built-ins).
+    pub id: usize,
+    /// Reference position in the global frame of sector 0 (m).
+    pub position: [f64; 3],
+}
+
+/// Rows of the reduction basis at chosen FE nodes: the recovery matrix (DESIGN §2.1, the
+/// Craig–Bampton basis `T` of Batailly & Legrand 2015 eq. 2 restricted to those nodes).
+///
+/// For nodal diameter `k`, `rows[k]` is a complex `3 n_r × (3 n_c + n_m(k))` matrix `R_k`
+/// (3 rows per node, x, y, z of the sector-local frame, node-major) with
+/// `ũ_node = R_k x̃_k`, `x̃_k = a_k − i b_k` the complex harmonic amplitude of the ROM
+/// coordinates. For a single component (N = 1) `R_0` is real and `u_node = R_0 x` exactly.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Recovery {
+    /// The recovered nodes (empty: no recovery).
+    pub nodes: Vec<RecoveryNode>,
+    /// One block per nodal diameter (empty when `nodes` is).
+    pub rows: Vec<ComplexRows>,
+}
+
+/// A complex rectangular matrix as its real and imaginary parts (same shape).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ComplexRows {
+    pub re: DMatrix<f64>,
+    pub im: DMatrix<f64>,
+}
+
+impl Recovery {
+    /// Index of the recovery node with FE id `id`.
+    pub fn position_of(&self, id: usize) -> Option<usize> {
+        self.nodes.iter().position(|n| n.id == id)
+    }
 }
 
 /// Free-vibration data of one nodal diameter, for the Campbell diagram and the interaction criterion.
@@ -159,6 +205,8 @@ pub struct CyclicRom {
     pub damping: Damping,
     /// How the model was made (build spec or import description), free-form JSON.
     pub provenance: serde_json::Value,
+    /// Recovery matrix of chosen interior FE nodes (empty when none were asked for).
+    pub recovery: Recovery,
 }
 
 /// A ROM that fails validation; every variant names what is wrong.
@@ -207,6 +255,8 @@ pub enum RomError {
     Damping(String),
     #[error("contact node {index} has a non-finite coordinate")]
     ContactNodeNotFinite { index: usize },
+    #[error("recovery: {0}")]
+    Recovery(String),
 }
 
 /// Relative tolerance on the symmetry of stored matrices.
@@ -314,6 +364,7 @@ impl CyclicRom {
                 return bad("non-finite rotation speed or frequency".into());
             }
         }
+        self.validate_recovery()?;
         match self.damping {
             Damping::Modal { ratio } if !(ratio.is_finite() && (0.0..1.0).contains(&ratio)) => Err(
                 RomError::Damping(format!("modal ratio {ratio} must be in [0, 1)")),
@@ -327,6 +378,63 @@ impl CyclicRom {
             }
             _ => Ok(()),
         }
+    }
+}
+
+impl CyclicRom {
+    /// Checks the recovery matrix: one block per harmonic of `3 n_r` rows and the harmonic's
+    /// order of columns, finite, real for the real harmonics; node ids unique and positions finite.
+    fn validate_recovery(&self) -> Result<(), RomError> {
+        let r = &self.recovery;
+        let bad = |m: String| Err(RomError::Recovery(m));
+        if r.nodes.is_empty() {
+            return if r.rows.is_empty() {
+                Ok(())
+            } else {
+                bad("recovery rows without recovery nodes".into())
+            };
+        }
+        let mut ids = std::collections::HashSet::new();
+        for (i, n) in r.nodes.iter().enumerate() {
+            if !ids.insert(n.id) {
+                return bad(format!("node {} is listed twice", n.id));
+            }
+            if n.position.iter().any(|x| !x.is_finite()) {
+                return bad(format!(
+                    "node {i} (id {}) has a non-finite coordinate",
+                    n.id
+                ));
+            }
+        }
+        if r.rows.len() != self.harmonics.len() {
+            return bad(format!(
+                "{} blocks of rows, expected one per nodal diameter ({})",
+                r.rows.len(),
+                self.harmonics.len()
+            ));
+        }
+        let nr = 3 * r.nodes.len();
+        for (k, (b, h)) in r.rows.iter().zip(&self.harmonics).enumerate() {
+            let n = self.n_boundary() + h.n_modes;
+            for (part, m) in [("re", &b.re), ("im", &b.im)] {
+                if m.shape() != (nr, n) {
+                    return bad(format!(
+                        "rows of nodal diameter {k} ({part}) are {}×{}, expected {nr}×{n}",
+                        m.nrows(),
+                        m.ncols()
+                    ));
+                }
+                if m.iter().any(|x| !x.is_finite()) {
+                    return bad(format!(
+                        "rows of nodal diameter {k} ({part}) are not finite"
+                    ));
+                }
+            }
+            if self.is_real_harmonic(k) && b.im.iter().any(|&x| x != 0.0) {
+                return bad(format!("rows of nodal diameter {k} must be real"));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -399,11 +507,13 @@ mod tests {
             contact_nodes: vec![ContactNode {
                 position: [0.1, 0.0, 0.0],
                 row: 0,
+                id: None,
             }],
             harmonics,
             modal_data: vec![],
             damping: Damping::default(),
             provenance: serde_json::Value::Null,
+            recovery: Recovery::default(),
         }
     }
 

@@ -167,6 +167,8 @@ mod tests {
             casing_energy: None,
             impeller_nd_strain_energy: nd,
             coating: None,
+            probe_columns: &[],
+            probes: &[],
         }
     }
 

@@ -143,6 +143,8 @@ mod tests {
                     load_amplitude_m: None,
                     load_ramp_s: None,
                     casing_probes: vec![],
+                    probes: vec![],
+                    revolution_report: None,
                     steady_fraction: None,
                     rigid_stations: None,
                     coating: None,

@@ -13,6 +13,7 @@ pub mod aggregate;
 pub mod checkpoint;
 pub mod planner;
 pub mod plots;
+pub mod probe_report;
 pub mod runner;
 pub mod schema;
 pub mod simulator;

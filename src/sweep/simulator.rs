@@ -285,6 +285,7 @@ impl ModelSimulator {
             load,
             clearance_offset,
             casing_probes: extras.casing_probes.clone(),
+            probes: extras.probes.clone(),
             initial_velocity: Default::default(),
             numerics,
             coating,

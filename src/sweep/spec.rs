@@ -16,9 +16,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Deserializer, Serialize};
 use serde_json::Value;
 
+use crate::analysis::revolutions::RevolutionWindows;
 use crate::contact::ImposedGap;
 use crate::dynamics::abradable::CoatingMaterial;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
+pub use crate::dynamics::probes::ProbeSpec;
 use crate::model::build::{CasingSpec, ImpellerSpec};
 pub use crate::sweep::schema::{SWEEP_SCHEMA, SpecError, SpecIssue, validate_against_schema};
 
@@ -154,6 +156,14 @@ pub struct Scenario {
     /// (flexible casing; sector < N, node < M of the casing).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub casing_probes: Vec<[usize; 2]>,
+    /// Probes of contact and recovery nodes, one time-series column each, in this order
+    /// (see [`ProbeSpec`]; checked against the models by [`crate::sweep::validate::resolve`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probes: Vec<ProbeSpec>,
+    /// Windows (in revolutions, at the end of the run) of the probes' steady figures that
+    /// `rubscan simulate` reports: peak-to-peak, mean, dominant frequency and engine order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub revolution_report: Option<RevolutionWindows>,
     /// Fraction of the run, at its end, used as the steady window of the spectra, in (0, 1]
     /// (default 0.5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -584,6 +594,38 @@ impl SweepSpec {
         }
     }
 
+    /// Each window lies within the run at every grid speed and needs probes to report on.
+    fn validate_revolution_report(&self, w: &RevolutionWindows, issues: &mut Vec<SpecIssue>) {
+        let path = "/scenario/revolution_report";
+        if self.scenario.probes.is_empty() {
+            issues.push(SpecIssue {
+                path: path.into(),
+                reason: "reports on the probes: give /scenario/probes".into(),
+            });
+        }
+        let slowest = self
+            .grid
+            .speed
+            .values_rad_s()
+            .into_iter()
+            .fold(f64::INFINITY, f64::min);
+        let run = self.scenario.duration_s * slowest / std::f64::consts::TAU;
+        for (field, revs) in [
+            ("peak_to_peak_revolutions", w.peak_to_peak),
+            ("mean_revolutions", w.mean_and_spectrum),
+        ] {
+            if !(revs.is_finite() && revs > 0.0 && revs <= run) {
+                issues.push(SpecIssue {
+                    path: format!("{path}/{field}"),
+                    reason: format!(
+                        "{revs} revolutions must be > 0 and within the run ({run:.2} revolutions \
+                         at the slowest grid speed)"
+                    ),
+                });
+            }
+        }
+    }
+
     fn validate_scenario(&self, issues: &mut Vec<SpecIssue>) {
         let sc = &self.scenario;
         check_positive(issues, "/scenario/duration_s", sc.duration_s, " s");
@@ -607,6 +649,9 @@ impl SweepSpec {
                     ),
                 });
             }
+        }
+        if let Some(w) = &sc.revolution_report {
+            self.validate_revolution_report(w, issues);
         }
         if let Some(f) = sc.steady_fraction
             && !(f.is_finite() && f > 0.0 && f <= 1.0)
@@ -1354,6 +1399,19 @@ mod tests {
                 load_amplitude_m: Some(1e-4),
                 load_ramp_s: Some(0.01),
                 casing_probes: vec![[0, 1]],
+                probes: vec![ProbeSpec {
+                    node: Some(1353),
+                    contact_node: Some(188),
+                    blade: Some(0),
+                    sector: Some(0),
+                    row: Some(0),
+                    quantity: crate::dynamics::probes::ProbeQuantity::Displacement,
+                    component: Some(crate::dynamics::probes::ProbeComponent::Y),
+                }],
+                revolution_report: Some(RevolutionWindows {
+                    peak_to_peak: 5.0,
+                    mean_and_spectrum: 20.0,
+                }),
                 steady_fraction: Some(0.5),
                 rigid_stations: Some(60),
                 coating: Some(CoatingScenario::default()),

@@ -9,9 +9,11 @@
 //!   K(Ω) = K0 + Ω² K1 + Ω⁴ K2 is positive semi-definite there ([`Structure::new`]);
 //! - the time step is below the explicit stability limit 2/ω_max
 //!   ([`Structure::stability_limit`]) of both structures at every grid speed;
-//! - casing probes name contact nodes of the flexible casing.
+//! - casing probes name contact nodes of the flexible casing, and every probe of
+//!   `scenario.probes` a node of the models with the quantity it asks for.
 
 use crate::contact::{GapDirection, ImposedGap};
+use crate::dynamics::probes::resolve_probes;
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::io::{model_cache, rom_file};
 use crate::model::rom::CyclicRom;
@@ -105,6 +107,7 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
     check_speeds_and_step(spec, &impeller, &casing, &mut issues);
     check_probes(spec, &casing, &mut issues);
     check_gap_directions(&impeller, &casing, &mut issues);
+    check_node_probes(spec, &impeller, &casing, &mut issues);
     if issues.is_empty() {
         Ok(ResolvedSweep {
             spec: spec.clone(),
@@ -198,6 +201,31 @@ fn check_speeds_and_step(
                 "h = {h:.4e} s is at or above the explicit stability limit 2/ω_max = {limit:.4e} s \
                  of the {which} at Ω = {omega} rad/s; use time_step_s < {limit:.4e}"
             ),
+        ));
+    }
+}
+
+/// The probes must name nodes of the models and quantities those nodes have
+/// ([`resolve_probes`]): the first wrong one is reported at `/scenario/probes/{i}[/field]`.
+fn check_node_probes(
+    spec: &SweepSpec,
+    impeller: &CyclicRom,
+    casing: &ResolvedCasing,
+    issues: &mut Vec<SpecIssue>,
+) {
+    let casing_rom = match casing {
+        ResolvedCasing::Flexible(rom) => Some(rom),
+        ResolvedCasing::Rigid(_) | ResolvedCasing::ImposedGap(_) => None,
+    };
+    if let Err(e) = resolve_probes(&spec.scenario.probes, impeller, casing_rom) {
+        let field = if e.field.is_empty() {
+            String::new()
+        } else {
+            format!("/{}", e.field)
+        };
+        issues.push(issue(
+            format!("/scenario/probes/{}{field}", e.index),
+            e.reason,
         ));
     }
 }
