@@ -20,6 +20,8 @@ pub(crate) struct ImposedCasing {
     offset: Vec<f64>,
     /// Fixed-frame angle φ (rad) of every tip node at t = 0, blade-major.
     phase: Vec<f64>,
+    /// Largest radius (m) of the tip nodes: the scale of the gap tolerances.
+    radius: f64,
 }
 
 impl ImposedCasing {
@@ -83,7 +85,12 @@ impl ImposedCasing {
                 })
             })
             .collect();
+        let radius = nodes
+            .iter()
+            .map(|c| c.position[0].hypot(c.position[1]))
+            .fold(0.0, f64::max);
         Ok(Self {
+            radius,
             gap: gap.clone(),
             omega,
             direction,
@@ -99,6 +106,17 @@ impl ImposedCasing {
         let u = Vector3::new(ub[3 * node], ub[3 * node + 1], ub[3 * node + 2]);
         let (g, _) = self.gap.profile.at(self.omega * t + self.phase[node]);
         g - self.offset[j] - self.direction[j].dot(&u)
+    }
+
+    /// The gap (m) of tip node `node` once its displacement is corrected by `du` (m, blade
+    /// frame) from the boundary displacements `ub` (see [`Self::gap`]).
+    pub(crate) fn gap_corrected(&self, node: usize, t: f64, ub: &[f64], du: &Vector3<f64>) -> f64 {
+        self.gap(node, t, ub) - self.direction[node % self.direction.len()].dot(du)
+    }
+
+    /// Largest radius (m) of the tip nodes.
+    pub(crate) fn radius_scale(&self) -> f64 {
+        self.radius
     }
 
     /// The gaps and normals of every tip node at time `t` (s) for the boundary displacements

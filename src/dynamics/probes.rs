@@ -171,8 +171,9 @@ pub struct RunSummary {
     pub active_contacts: usize,
     /// Steps that end with at least one closed contact (a positive multiplier).
     pub closed_contact_steps: usize,
-    /// Largest residual penetration (m, over the sample steps) and largest |blade-tip radial
-    /// displacement| (m, over every step).
+    /// Largest residual penetration (m: over the sample steps on a casing surface, over
+    /// every step against imposed gaps) and largest |blade-tip radial displacement| (m, over
+    /// every step).
     pub max_residual_penetration: f64,
     pub max_blade_radial: f64,
     /// Wall-clock time of the stepping loop (s) and its split by stage.

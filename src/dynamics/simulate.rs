@@ -100,6 +100,24 @@ struct Cand {
     param: SurfaceParam,
 }
 
+impl Cand {
+    /// Blade-tip node `node` (blade-major, `n_contact` per blade) as a candidate at its
+    /// projection `p`, before its friction direction is known.
+    fn at(node: usize, n_contact: usize, p: &Projection) -> Self {
+        Cand {
+            node,
+            blade: node / n_contact,
+            row: node % n_contact,
+            n: p.normal,
+            fdir: p.normal,
+            slip: false,
+            g_loc: Vector3::zeros(),
+            f_loc: Vector3::zeros(),
+            param: p.param,
+        }
+    }
+}
+
 /// The linear-algebra kernel of one structure with the flexibility the contact solve reads:
 /// the fast modal kernel with its precomputed table `T`, or the dense reference with its
 /// boundary flexibility `A⁻¹` restricted to the boundary DOFs.
@@ -277,8 +295,6 @@ struct CasingSide {
     past: PastSurface,
     /// Largest radius (m) of the casing at rest (scale of the residual tolerance).
     radius_scale: f64,
-    /// [`GAP_TOLERANCE`] × `radius_scale` (m).
-    gap_tolerance: f64,
 }
 
 impl CasingSide {
@@ -371,7 +387,6 @@ impl CasingSide {
             q,
             pnodes: rest_nodes,
             radius_scale,
-            gap_tolerance: GAP_TOLERANCE * radius_scale,
         })
     }
 
@@ -443,6 +458,19 @@ impl Casing {
 
     fn flexible_mut(&mut self) -> Option<&mut FlexibleCasing> {
         self.surface_mut()?.flexible.as_mut()
+    }
+
+    /// Largest radius (m) of the casing at rest, or of the blade tips against imposed gaps.
+    fn radius_scale(&self) -> f64 {
+        match self {
+            Casing::Surface(cs) => cs.radius_scale,
+            Casing::Imposed(imposed) => imposed.radius_scale(),
+        }
+    }
+
+    /// [`GAP_TOLERANCE`] × [`Casing::radius_scale`] (m).
+    fn gap_tolerance(&self) -> f64 {
+        GAP_TOLERANCE * self.radius_scale()
     }
 }
 
@@ -808,8 +836,14 @@ impl<'a> Simulation<'a> {
         self.coating()?;
         self.gaps()?;
         if !self.contact.cands.is_empty() {
-            self.friction_directions()?;
-            self.contact_solve()?;
+            self.summary.contact_steps += 1;
+            loop {
+                self.friction_directions()?;
+                self.contact_solve()?;
+                if !self.admit_pushed_nodes() {
+                    break;
+                }
+            }
             self.correct()?;
         }
         self.advance()?;
@@ -934,17 +968,7 @@ impl<'a> Simulation<'a> {
             }
             self.min_gap = self.min_gap.min(p.gap);
             if p.gap < 0.0 {
-                c.cands.push(Cand {
-                    node,
-                    blade: node / self.blades.n_contact,
-                    row: node % self.blades.n_contact,
-                    n: p.normal,
-                    fdir: p.normal,
-                    slip: false,
-                    g_loc: Vector3::zeros(),
-                    f_loc: Vector3::zeros(),
-                    param: p.param,
-                });
+                c.cands.push(Cand::at(node, self.blades.n_contact, p));
             }
         }
         // Imposed gaps are all computed: their minimum is exact already.
@@ -969,7 +993,6 @@ impl<'a> Simulation<'a> {
     /// The friction direction of each candidate from its slip increment relative to the
     /// casing material point (eq. 15), and its rows in the blade's frame.
     fn friction_directions(&mut self) -> Result<(), SimError> {
-        self.summary.contact_steps += 1;
         let mu = self.case.friction;
         let (b, flexible) = (
             &self.blades,
@@ -995,6 +1018,32 @@ impl<'a> Simulation<'a> {
             cd.f_loc = to_loc * cd.fdir;
         }
         Ok(())
+    }
+
+    /// Imposed gaps: the nodes that were not candidates (their predicted gap was open) but
+    /// that the correction of the others pushes into the casing (the blade's flexibility
+    /// couples its tip nodes) join the candidates, and the contact is solved again. Returns
+    /// whether any joined. The gaps are exact and cheap here; on a casing surface a node's
+    /// gap after the others' correction needs its own flexibility rows (not done yet).
+    fn admit_pushed_nodes(&mut self) -> bool {
+        let Casing::Imposed(imposed) = &self.casing else {
+            return false;
+        };
+        let tol = self.casing.gap_tolerance();
+        let (b, c) = (&self.blades, &mut self.contact);
+        let ub = b.kernel.get().boundary();
+        let n_before = c.cands.len();
+        for (node, p) in self.projector.proj.iter().enumerate() {
+            if c.cands[..n_before].iter().any(|cd| cd.node == node) {
+                continue;
+            }
+            let cand = Cand::at(node, b.n_contact, p);
+            let du = blade_correction(&b.kernel, b.nb, &c.cands[..n_before], &c.lambda, &cand);
+            if imposed.gap_corrected(node, self.t1, ub, &du) < -tol {
+                c.cands.push(cand);
+            }
+        }
+        c.cands.len() > n_before
     }
 
     /// Box 4: `W = G_i A_i⁻¹ F_iᵀ + G_c A_c⁻¹ F_cᵀ` and the multipliers λ of eq. (18).
@@ -1033,7 +1082,7 @@ impl<'a> Simulation<'a> {
             nk,
             &c.w[..nk * nk],
             &c.d[..nk],
-            self.casing.gap_tolerance,
+            self.casing.gap_tolerance(),
             &mut c.lambda,
             &mut c.active,
             &mut c.lu,
@@ -1081,7 +1130,8 @@ impl<'a> Simulation<'a> {
             self.correct_casing(next_load)?;
         }
         self.blades.place(&self.r_om);
-        if self.sample_step {
+        // Imposed gaps are exact and cheap: their residual is checked on every step.
+        if self.sample_step || matches!(self.casing, Casing::Imposed(_)) {
             self.residual_penetration()?;
         }
         self.clock.lap(Stage::Correction);
@@ -1154,8 +1204,8 @@ impl<'a> Simulation<'a> {
     }
 
     /// The largest residual penetration after the correction (m): the corrected candidates
-    /// re-projected on the corrected casing surface, or their imposed gaps. A divergence when
-    /// above 1e-4 of the casing radius.
+    /// re-projected on the corrected casing surface, or their imposed gaps; kept in the run's
+    /// summary. A divergence when above 1e-4 of the casing radius.
     fn residual_penetration(&mut self) -> Result<(), SimError> {
         let cs = match &self.casing {
             Casing::Surface(cs) => cs,
@@ -1165,6 +1215,8 @@ impl<'a> Simulation<'a> {
                     let gap = imposed.gap(cd.node, self.t1, ub);
                     self.residual = self.residual.max(-gap);
                 }
+                let s = &mut self.summary;
+                s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
                 return Ok(());
             }
         };
@@ -1186,7 +1238,9 @@ impl<'a> Simulation<'a> {
             found.map_err(projection_failed(self.t1))?;
             self.residual = self.residual.max(-p.res_proj[0].gap);
         }
-        if self.residual > 1e-4 * cs.radius_scale.max(1e-3) {
+        let s = &mut self.summary;
+        s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
+        if self.residual > 1e-4 * self.casing.radius_scale().max(1e-3) {
             return Err(SimError::Diverged {
                 time: self.t1,
                 reason: format!(
@@ -1268,8 +1322,6 @@ impl<'a> Simulation<'a> {
         }
         self.probe_values()?;
         let b = &self.blades;
-        let s = &mut self.summary;
-        s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
         let ki = b.kernel.get();
         ki.nd_strain_energy(&mut self.nd_energy);
         let sample = Sample {
@@ -1400,6 +1452,34 @@ impl<'a> Simulation<'a> {
         found.map_err(projection_failed(self.t1))?;
         Ok(p.res_proj[0].gap)
     }
+}
+
+/// The correction (m, blade frame) of candidate `a`'s node by the forces `λ (n + μ t)` of the
+/// `cands`, through the blade's boundary flexibility.
+fn blade_correction(
+    kernel: &Kernel<NodeFlexTable>,
+    nb: usize,
+    cands: &[Cand],
+    lambda: &[f64],
+    a: &Cand,
+) -> Vector3<f64> {
+    let mut du = Vector3::zeros();
+    for (b, l) in cands.iter().zip(lambda).filter(|(_, l)| **l != 0.0) {
+        match kernel {
+            Kernel::Modal { table, .. } => {
+                du += table.block(a.blade, b.blade, a.row, b.row) * (b.f_loc * *l);
+            }
+            Kernel::Dense { flexibility, .. } => {
+                let (ra, cb) = (a.blade * nb + 3 * a.row, b.blade * nb + 3 * b.row);
+                for d in 0..3 {
+                    for e in 0..3 {
+                        du[d] += flexibility[(ra + d, cb + e)] * b.f_loc[e] * l;
+                    }
+                }
+            }
+        }
+    }
+    du
 }
 
 /// Adds the casing's `G_c A_c⁻¹ F_cᵀ` to `W`: control-point flexibility blocks of the
