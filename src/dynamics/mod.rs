@@ -21,9 +21,7 @@ pub mod kernel;
 mod kernel_agreement;
 pub mod modal;
 pub mod numerics;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod probes;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod recorder;
 pub mod scenario;
 #[allow(missing_docs)] // documented after #23 lands
