@@ -298,14 +298,22 @@ fn rotate_about_z((c, s): (f64, f64), m: &[f64; 12]) -> Matrix3<f64> {
 pub enum ContactSolveError {
     /// `W_AA` of an active set is singular.
     #[error("singular contact matrix W on an active set of {active} contacts")]
-    Singular { active: usize },
+    Singular {
+        /// Size of the active set.
+        active: usize,
+    },
     /// The pivoting hit its cap: with friction `W` may not be a P-matrix (a large μ), and the
     /// complementarity problem then need not have one solution.
     #[error(
         "contact active set not settled after {pivots} pivots ({candidates} candidates): \
          W may not be a P-matrix (friction too large for this contact geometry)"
     )]
-    NotSettled { pivots: usize, candidates: usize },
+    NotSettled {
+        /// Pivots made.
+        pivots: usize,
+        /// Contact candidates of the step.
+        candidates: usize,
+    },
 }
 
 /// The complementarity problem of a step (eq. 18): finds `λ ≥ 0` with the linearised gaps

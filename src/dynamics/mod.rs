@@ -12,7 +12,6 @@
 //! - [`abradable`]: the abradable coating's elastoplastic elements;
 
 pub mod abradable;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod contact_solve;
 pub mod dense;
 mod imposed_casing;
@@ -21,12 +20,9 @@ pub mod kernel;
 mod kernel_agreement;
 pub mod modal;
 pub mod numerics;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod probes;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod recorder;
 pub mod scenario;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod simulate;
 pub mod structure;
 

@@ -5,7 +5,9 @@ use serde::{Deserialize, Serialize};
 /// Energies of one structure (J), see [`crate::dynamics::kernel::Energies`].
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct EnergySeries {
+    /// Kinetic energy at each sample (J).
     pub kinetic: Vec<f64>,
+    /// Strain energy at each sample (J).
     pub strain: Vec<f64>,
 }
 
@@ -17,8 +19,10 @@ pub struct SimulationOutput {
     /// Sample times (s).
     pub time: Vec<f64>,
     /// Radial displacement (m, rotating frame, positive outward) of each blade's leading-edge
-    /// tip node (contact row 0) and trailing-edge node (last row).
+    /// tip node (contact row 0), `[blade][sample]`.
     pub blade_le_radial: Vec<Vec<f64>>,
+    /// Radial displacement (m, rotating frame, positive outward) of each blade's trailing-edge
+    /// node (last contact row), `[blade][sample]`.
     pub blade_te_radial: Vec<Vec<f64>>,
     /// Radial displacement (m, positive outward) of the requested casing contact nodes
     /// (`Case::casing_probes` order; empty for a rigid casing).
@@ -34,8 +38,9 @@ pub struct SimulationOutput {
     /// synthesise the corrected casing surface (aside: the state never reads it), so only
     /// they are checked.
     pub residual_penetration: Vec<f64>,
-    /// Impeller and casing energies (J, half-step form).
+    /// Impeller energies (J, half-step form).
     pub impeller_energy: EnergySeries,
+    /// Casing energies (J, half-step form).
     pub casing_energy: EnergySeries,
     /// Impeller strain energy per nodal diameter (J), `[k][sample]`, paper eqs. (20)–(22).
     pub impeller_nd_strain_energy: Vec<Vec<f64>>,
@@ -108,11 +113,17 @@ impl StageSeconds {
 /// Which stage of [`StageSeconds`] a [`StageClock::lap`] closes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
+    /// [`StageSeconds::predict`]: the predictors of both structures.
     Predict,
+    /// [`StageSeconds::spline`]: the casing spline's control points.
     Spline,
+    /// [`StageSeconds::projection`]: blade-tip nodes projected on the spline.
     Projection,
+    /// [`StageSeconds::contact_solve`]: friction directions, `W` and the active-set solve.
     ContactSolve,
+    /// [`StageSeconds::correction`]: corrections of both structures.
     Correction,
+    /// [`StageSeconds::other`]: everything else.
     Other,
 }
 
@@ -160,24 +171,29 @@ impl StageClock {
 /// Scalar results of a run (the series go to the [`Recorder`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RunSummary {
-    /// Time step h (s), stability limit 2/ω_max (s), steps per revolution at Ω.
+    /// Time step h (s).
     pub time_step: f64,
+    /// Stability limit of the explicit scheme, 2/ω_max (s), ω_max (rad/s) the highest natural
+    /// angular frequency of the impeller and casing ROMs (the smaller limit of the two).
     pub stability_limit: f64,
+    /// Time steps per revolution at the rotation speed Ω, `2π / (|Ω| h)` (infinite at Ω = 0).
     pub steps_per_revolution: f64,
-    /// Steps, steps with at least one contact candidate, (step, node) pairs with a positive
-    /// multiplier.
+    /// Number of time steps of the run.
     pub n_steps: usize,
+    /// Number of steps with at least one contact candidate.
     pub contact_steps: usize,
+    /// Number of (step, node) pairs with a positive multiplier λ.
     pub active_contacts: usize,
     /// Steps that end with at least one closed contact (a positive multiplier).
     pub closed_contact_steps: usize,
     /// Largest residual penetration (m: over the sample steps on a casing surface, over
-    /// every step against imposed gaps) and largest |blade-tip radial displacement| (m, over
-    /// every step).
+    /// every step against imposed gaps).
     pub max_residual_penetration: f64,
+    /// Largest |blade-tip radial displacement| (m, over every step).
     pub max_blade_radial: f64,
-    /// Wall-clock time of the stepping loop (s) and its split by stage.
+    /// Wall-clock time of the stepping loop (s).
     pub loop_seconds: f64,
+    /// The loop's wall-clock time split by stage (s).
     pub stage_seconds: StageSeconds,
     /// The coating's final state (`None` without a coating).
     pub coating: Option<CoatingOutput>,
@@ -210,11 +226,17 @@ pub enum ProbeQuantity {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ProbeComponent {
+    /// x of the node's sector frame.
     X,
+    /// y of the node's sector frame.
     Y,
+    /// z of the node's sector frame (the rotation axis).
     Z,
+    /// Radial, positive outward, at the node's reference position.
     Radial,
+    /// Tangential, counter-clockwise about +z, at the node's reference position.
     Tangential,
+    /// Axial, along +z (same direction as [`ProbeComponent::Z`]).
     Axial,
 }
 
@@ -262,17 +284,24 @@ impl ProbeComponent {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProbeSpec {
+    /// FE id of a recovery node of the impeller ROM (displacement only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub node: Option<usize>,
+    /// FE id of an impeller contact node (imported models).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_node: Option<usize>,
+    /// Blade index (0-based; default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub blade: Option<usize>,
+    /// Sector index (0-based) of a flexible casing's contact node.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sector: Option<usize>,
+    /// Contact row (0 = leading edge), with `blade` or `sector`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub row: Option<usize>,
+    /// What the probe measures.
     pub quantity: ProbeQuantity,
+    /// Displacement component; required for a displacement, refused otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub component: Option<ProbeComponent>,
 }
@@ -281,17 +310,34 @@ pub struct ProbeSpec {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ProbeTarget {
     /// Recovery node `index` (in [`Recovery::nodes`]) of blade `blade`.
-    Recovery { blade: usize, index: usize },
+    Recovery {
+        /// Blade index (0-based).
+        blade: usize,
+        /// Index in [`Recovery::nodes`].
+        index: usize,
+    },
     /// Impeller contact node `index` (in `contact_nodes`) of blade `blade`.
-    Blade { blade: usize, index: usize },
+    Blade {
+        /// Blade index (0-based).
+        blade: usize,
+        /// Index in the impeller ROM's `contact_nodes`.
+        index: usize,
+    },
     /// Casing contact node `index` of sector `sector`.
-    Casing { sector: usize, index: usize },
+    Casing {
+        /// Casing sector index (0-based).
+        sector: usize,
+        /// Index in the casing ROM's `contact_nodes`.
+        index: usize,
+    },
 }
 
 /// A probe checked against the models: its node, what it measures, its column.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Probe {
+    /// The node the probe reads.
     pub target: ProbeTarget,
+    /// What the probe measures.
     pub quantity: ProbeQuantity,
     /// Unit vector of the displacement component in the node's sector frame (zero otherwise).
     pub direction: Vector3<f64>,
@@ -310,6 +356,7 @@ pub struct ProbeError {
     /// Field of the probe at fault (`node`, `contact_node`, `quantity`, …); empty when the
     /// probe as a whole is at fault (no node, or two).
     pub field: &'static str,
+    /// Why the probe cannot be measured.
     pub reason: String,
 }
 

@@ -40,9 +40,10 @@ pub struct Sample<'a> {
     pub impeller_nd_strain_energy: &'a [f64],
     /// The abradable coating's probes; `None` without a coating.
     pub coating: Option<CoatingSample<'a>>,
-    /// The probes the case selects (`Case::probes`, in its order) and their values (m or N,
-    /// see [`Probe::unit`]), one per probe.
+    /// The probes the case selects (`Case::probes`, in its order).
     pub probe_columns: &'a [Probe],
+    /// The probes' values at this sample (m or N, see [`Probe::unit`]), one per probe of
+    /// `probe_columns`.
     pub probes: &'a [f64],
 }
 

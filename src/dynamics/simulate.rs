@@ -40,30 +40,57 @@ use thiserror::Error;
 /// Why a simulation could not run or stopped.
 #[derive(Debug, Error)]
 pub enum SimError {
+    /// The case does not fit its models (the reason says which setting).
     #[error("invalid case: {0}")]
     InvalidCase(String),
+    /// A ROM could not be frozen at the case's speed.
     #[error(transparent)]
     Structure(#[from] StructureError),
+    /// The time step is at or above the explicit stability limit.
     #[error(
         "time step h = {h:.4e} s is at or above the explicit stability limit 2/ω_max = {limit:.4e} s (ω_max = {omega_max:.4e} rad/s, {which}){rev}"
     )]
     Unstable {
+        /// Time step (s).
         h: f64,
+        /// Stability limit 2/ω_max (s).
         limit: f64,
+        /// Highest natural circular frequency (rad/s).
         omega_max: f64,
+        /// Which structure sets the limit.
         which: String,
+        /// The steps per revolution the limit allows, as text (empty at Ω = 0).
         rev: String,
     },
+    /// The casing spline could not be built or evaluated.
     #[error("casing spline: {0}")]
     Spline(String),
+    /// The closest-point projection of a blade-tip node failed.
     #[error("closest-point projection failed at t = {time:.6e} s: {reason}")]
-    Projection { time: f64, reason: String },
+    Projection {
+        /// Time (s) of the step.
+        time: f64,
+        /// What failed.
+        reason: String,
+    },
+    /// The state became non-finite, or the contact could not be solved.
     #[error("simulation diverged at t = {time:.6e} s: {reason}")]
-    Diverged { time: f64, reason: String },
+    Diverged {
+        /// Time (s) of the step.
+        time: f64,
+        /// What diverged.
+        reason: String,
+    },
+    /// The caller's cancel flag was raised.
     #[error("simulation cancelled at t = {time:.6e} s")]
-    Cancelled { time: f64 },
+    Cancelled {
+        /// Simulated time (s) reached.
+        time: f64,
+    },
+    /// The abradable coating could not be built or updated.
     #[error("abradable coating: {0}")]
     Coating(#[from] AbradableError),
+    /// The recorder could not keep a sample.
     #[error("recording the output: {0}")]
     Record(RecordError),
 }

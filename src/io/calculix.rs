@@ -35,23 +35,39 @@ use thiserror::Error;
 /// Why an import failed; every variant names the file (and the line where it applies).
 #[derive(Debug, Error)]
 pub enum ImportError {
+    /// A file cannot be opened or read.
     #[error("{}: cannot read: {source}", file.display())]
     Io {
+        /// The file.
         file: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
+    /// A line of a file is malformed.
     #[error("{}:{line}: {reason}", file.display())]
     Line {
+        /// The file.
         file: PathBuf,
+        /// Line number (1-based).
         line: usize,
+        /// What is wrong with the line.
         reason: String,
     },
+    /// A file as a whole is wrong (not tied to one line, e.g. no DOFs).
     #[error("{}: {reason}", file.display())]
-    File { file: PathBuf, reason: String },
+    File {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The import specification is invalid (holds the reason).
     #[error("import specification: {0}")]
     Spec(String),
+    /// The Craig–Bampton reduction (paper ref. 26) of the imported matrices failed.
     #[error("reduction: {0}")]
     Reduction(#[from] ComponentError),
+    /// The reduced model fails [`crate::model::rom::CyclicRom::validate`].
     #[error("the reduced model is invalid: {0}")]
     Rom(#[from] crate::model::rom::RomError),
 }

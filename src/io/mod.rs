@@ -4,13 +4,9 @@
 //! on top of this stage; the numerics stages below it never touch the file system.
 
 pub mod atomic;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod calculix;
 pub mod content_hash;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod matrix_market;
 pub mod model_cache;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod rom_file;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod timeseries;

@@ -26,25 +26,46 @@ pub const FORMAT_NAME: &str = "rubscan-rom";
 /// Everything that can go wrong reading or writing a ROM file; each variant names the file.
 #[derive(Debug, Error)]
 pub enum RomFileError {
+    /// The file cannot be read.
     #[error("{path}: cannot read: {source}")]
     Read {
+        /// The file.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
+    /// The file cannot be written.
     #[error("{path}: cannot write: {source}")]
     Write {
+        /// The file.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
+    /// The file is not a valid safetensors container.
     #[error("{path}: not a valid safetensors container (truncated or corrupted?): {source}")]
     Container {
+        /// The file.
         path: PathBuf,
+        /// The safetensors parsing error.
         source: safetensors::SafeTensorError,
     },
+    /// The metadata or tensors do not follow the ROM file layout.
     #[error("{path}: {reason}")]
-    Layout { path: PathBuf, reason: String },
+    Layout {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with the layout.
+        reason: String,
+    },
+    /// The file holds a well-formed but invalid ROM.
     #[error("{path}: invalid model: {source}")]
-    Invalid { path: PathBuf, source: RomError },
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Why the ROM fails validation.
+        source: RomError,
+    },
 }
 
 /// JSON metadata stored under the `rom` key of the safetensors header.

@@ -119,41 +119,88 @@ impl Default for ComponentReductionOptions {
 /// Why a component cannot be reduced.
 #[derive(Debug, Error, PartialEq)]
 pub enum ComponentError {
+    /// An FE matrix is not square with one row per DOF of the DOF map.
     #[error("{what} is {rows}×{cols}, expected {n}×{n} (one row per DOF of the DOF map)")]
     Size {
+        /// Which matrix: `"stiffness"` or `"mass"`.
         what: &'static str,
+        /// Its number of rows.
         rows: usize,
+        /// Its number of columns.
         cols: usize,
+        /// The expected size: the number of DOFs in the DOF map.
         n: usize,
     },
+    /// A contact node lacks one of its x, y, z DOFs in the DOF map.
     #[error(
         "contact node {node} has no {axis} DOF in the model (clamped or absent from the DOF map)"
     )]
-    ContactDofMissing { node: usize, axis: char },
+    ContactDofMissing {
+        /// FE node id of the contact node.
+        node: usize,
+        /// The missing direction: `'x'`, `'y'` or `'z'`.
+        axis: char,
+    },
+    /// The same contact node is given twice.
     #[error("contact node {node} is listed twice")]
-    DuplicateContactNode { node: usize },
+    DuplicateContactNode {
+        /// FE node id of the repeated node.
+        node: usize,
+    },
+    /// A recovery node has no DOF in the DOF map.
     #[error("recovery node {node} has no DOF in the model (clamped or absent from the DOF map)")]
-    RecoveryNodeMissing { node: usize },
+    RecoveryNodeMissing {
+        /// FE node id of the recovery node.
+        node: usize,
+    },
+    /// The same recovery node is given twice.
     #[error("recovery node {node} is listed twice")]
-    DuplicateRecoveryNode { node: usize },
+    DuplicateRecoveryNode {
+        /// FE node id of the repeated node.
+        node: usize,
+    },
+    /// The list of contact nodes is empty.
     #[error("no contact nodes given")]
     NoContactNodes,
+    /// The requested number of fixed-interface modes is 0 or exceeds the interior DOFs.
     #[error("n_modes = {n_modes}: must be between 1 and the {n_interior} interior DOFs")]
-    ModeCount { n_modes: usize, n_interior: usize },
+    ModeCount {
+        /// The requested number of fixed-interface modes.
+        n_modes: usize,
+        /// The number of interior (non-contact) DOFs.
+        n_interior: usize,
+    },
+    /// The Cholesky factorization of the interior stiffness `K_ii` failed (holds its message).
     #[error(
         "the interior stiffness K_ii is not positive definite (is the component clamped?): {0}"
     )]
     NotPositiveDefinite(String),
+    /// The interior mass matrix `M_ii` is not positive definite on the fixed-interface modes.
     #[error("the mass matrix is not positive definite on the fixed-interface modes")]
     MassNotPositive,
+    /// The sparse eigensolver did not converge all requested fixed-interface modes.
     #[error("the eigensolver converged {converged} of {wanted} fixed-interface modes")]
-    EigenNotConverged { converged: usize, wanted: usize },
+    EigenNotConverged {
+        /// Number of modes converged.
+        converged: usize,
+        /// Number of modes requested.
+        wanted: usize,
+    },
+    /// The dense generalized eigenproblem of the reduced model failed (holds its message).
     #[error("dense eigen-solution of the reduced model failed: {0}")]
     ReducedEigen(String),
+    /// A sparse-matrix operation (e.g. symbolic Cholesky) failed (holds its message).
     #[error("sparse matrix: {0}")]
     Sparse(String),
+    /// Two entries at the same matrix position.
     #[error("duplicate entry ({row}, {col}) (1-based; mirrored entries count as the same)")]
-    DuplicateEntry { row: usize, col: usize },
+    DuplicateEntry {
+        /// Row of the entry (1-based; the smaller of the two indices).
+        row: usize,
+        /// Column of the entry (1-based; the larger of the two indices).
+        col: usize,
+    },
+    /// Invalid speed samples for [`speed_polynomial_from_samples`] (holds the reason).
     #[error("speed samples: {0}")]
     SpeedSamples(String),
 }

@@ -4,7 +4,6 @@
 pub mod build;
 #[cfg(test)]
 mod builtin_sectors;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod component;
 pub mod cyclic;
 pub mod eigen;
@@ -12,5 +11,4 @@ pub mod fe;
 pub(crate) mod hex20;
 pub mod mesh;
 pub mod reduction;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod rom;

@@ -45,9 +45,17 @@ pub enum Component {
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Damping {
     /// The same modal damping ratio ζ (dimensionless) on every free-vibration mode of the ROM.
-    Modal { ratio: f64 },
+    Modal {
+        /// Modal damping ratio ζ (dimensionless, in [0, 1)).
+        ratio: f64,
+    },
     /// Rayleigh damping `D = α M + β K0`, α in 1/s and β in s.
-    Rayleigh { alpha: f64, beta: f64 },
+    Rayleigh {
+        /// Mass-proportional coefficient α (1/s).
+        alpha: f64,
+        /// Stiffness-proportional coefficient β (s).
+        beta: f64,
+    },
 }
 
 impl Default for Damping {
@@ -59,7 +67,9 @@ impl Default for Damping {
 /// A Hermitian matrix stored as its real (symmetric) and imaginary (antisymmetric) parts.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HermitianMatrix {
+    /// Real part `C_re` (symmetric).
     pub re: DMatrix<f64>,
+    /// Imaginary part `C_im` (antisymmetric; zero for k = 0 and k = N/2).
     pub im: DMatrix<f64>,
 }
 
@@ -159,7 +169,9 @@ pub struct Recovery {
 /// A complex rectangular matrix as its real and imaginary parts (same shape).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ComplexRows {
+    /// Real part.
     pub re: DMatrix<f64>,
+    /// Imaginary part, same shape as `re`.
     pub im: DMatrix<f64>,
 }
 
@@ -182,7 +194,9 @@ pub struct ModalData {
     pub frequencies: Vec<Vec<f64>>,
     /// Mode shapes at the contact nodes of sector 0 (complex amplitude `ũ`, real and
     /// imaginary parts, 3 n_c entries each), mass-normalized, at `omega[i]`: `shapes[i][p]`.
+    /// This field holds the real parts (1/√kg).
     pub shapes_re: Vec<Vec<Vec<f64>>>,
+    /// Imaginary parts of the mode shapes, indexed as `shapes_re` (1/√kg).
     pub shapes_im: Vec<Vec<Vec<f64>>>,
 }
 
@@ -212,49 +226,98 @@ pub struct CyclicRom {
 /// A ROM that fails validation; every variant names what is wrong.
 #[derive(Debug, Error, PartialEq)]
 pub enum RomError {
+    /// `n_sectors` is 0.
     #[error("the ROM has no sectors (n_sectors = 0)")]
     NoSectors,
+    /// The list of contact nodes is empty.
     #[error("the ROM has no contact nodes")]
     NoContactNodes,
+    /// The number of harmonic blocks is not N/2 + 1.
     #[error("expected {expected} harmonic blocks (k = 0..={kmax}), found {found}")]
     HarmonicCount {
+        /// Expected number of blocks, N/2 + 1.
         expected: usize,
+        /// Largest nodal diameter, N/2.
         kmax: usize,
+        /// Number of blocks found.
         found: usize,
     },
+    /// A harmonic block is out of order (block `index` must have nodal diameter `index`).
     #[error("harmonic block {index} has nodal diameter {found}, expected {index}")]
-    HarmonicOrder { index: usize, found: usize },
+    HarmonicOrder {
+        /// Position of the block in `harmonics`.
+        index: usize,
+        /// Nodal diameter the block declares.
+        found: usize,
+    },
+    /// A reduced matrix (or one of its parts) has the wrong size.
     #[error("{what} of nodal diameter {k} is {rows}×{cols}, expected {n}×{n}")]
     Shape {
+        /// Which matrix: `"mass"`, `"K0"`, `"K1"` or `"K2"`.
         what: &'static str,
+        /// Nodal diameter of the block.
         k: usize,
+        /// Its number of rows.
         rows: usize,
+        /// Its number of columns.
         cols: usize,
+        /// Expected size, 3 n_c + n_m.
         n: usize,
     },
+    /// A reduced matrix has a NaN or infinite entry.
     #[error("{what} of nodal diameter {k} has a non-finite entry at ({row}, {col})")]
     NotFinite {
+        /// Which matrix: `"mass"`, `"K0"`, `"K1"` or `"K2"`.
         what: &'static str,
+        /// Nodal diameter of the block.
         k: usize,
+        /// Row of the entry (0-based).
         row: usize,
+        /// Column of the entry (0-based).
         col: usize,
     },
+    /// A reduced matrix is not Hermitian within the tolerance.
     #[error("{what} of nodal diameter {k} is not Hermitian (relative asymmetry {asym:.3e})")]
     NotHermitian {
+        /// Which matrix: `"mass"`, `"K0"`, `"K1"` or `"K2"`.
         what: &'static str,
+        /// Nodal diameter of the block.
         k: usize,
+        /// Largest asymmetry relative to the largest entry (dimensionless).
         asym: f64,
     },
+    /// A reduced matrix of nodal diameter 0 or N/2 has a non-zero imaginary part.
     #[error("{what} of nodal diameter {k} must be real for k = 0 and k = N/2")]
-    NotReal { what: &'static str, k: usize },
+    NotReal {
+        /// Which matrix: `"mass"`, `"K0"`, `"K1"` or `"K2"`.
+        what: &'static str,
+        /// Nodal diameter of the block.
+        k: usize,
+    },
+    /// The reduced mass matrix of a block is not positive definite.
     #[error("mass of nodal diameter {k} is not positive definite")]
-    MassNotPositiveDefinite { k: usize },
+    MassNotPositiveDefinite {
+        /// Nodal diameter of the block.
+        k: usize,
+    },
+    /// A [`ModalData`] entry is inconsistent.
     #[error("modal data entry {index}: {reason}")]
-    ModalData { index: usize, reason: String },
+    ModalData {
+        /// Position of the entry in `modal_data`.
+        index: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The damping parameters are out of range (holds the reason).
     #[error("damping: {0}")]
     Damping(String),
+    /// A contact node's reference position is NaN or infinite.
     #[error("contact node {index} has a non-finite coordinate")]
-    ContactNodeNotFinite { index: usize },
+    ContactNodeNotFinite {
+        /// Position of the node in `contact_nodes`.
+        index: usize,
+    },
+    /// The recovery matrix is inconsistent with the ROM (holds the reason).
     #[error("recovery: {0}")]
     Recovery(String),
 }

@@ -17,12 +17,10 @@ pub mod probe_report;
 pub mod runner;
 pub mod schema;
 pub mod simulator;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod spec;
 #[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
 pub mod table;
-#[allow(missing_docs)] // documented after #23 lands
 pub mod validate;
 
 use std::sync::atomic::AtomicBool;
