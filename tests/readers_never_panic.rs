@@ -740,7 +740,10 @@ fn corrupt_header(bytes: &[u8], m: &HeaderMut) -> (Vec<u8>, bool) {
         }
         HeaderMut::Info { key, with } => {
             header["__metadata__"][key.as_str()] = json!(with);
-            invalid = key != "format" || with != "rubscan-rom";
+            // The format's own name and the current version leave the file as it was.
+            let current = rubscan::model::rom::ROM_FORMAT_VERSION.to_string();
+            invalid = !((key == "format" && with == "rubscan-rom")
+                || (key == "format_version" && *with == current));
         }
         HeaderMut::Length(l) => {
             length = Some(*l);

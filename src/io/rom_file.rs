@@ -97,12 +97,7 @@ pub fn save(rom: &CyclicRom, path: &Path) -> Result<(), RomFileError> {
         path: path.into(),
         reason: e.to_string(),
     })?;
-    write_atomic(path, &bytes)
-}
-
-/// Writes `bytes` to `path` through a temporary sibling file and a rename, so a reader never sees a partial file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RomFileError> {
-    crate::io::atomic::write_atomic(path, bytes).map_err(|source| RomFileError::Write {
+    crate::io::atomic::write_atomic(path, &bytes).map_err(|source| RomFileError::Write {
         path: path.into(),
         source,
     })
