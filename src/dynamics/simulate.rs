@@ -1404,7 +1404,12 @@ impl<'a> Simulation<'a> {
         let b = &self.blades;
         Ok(match (p.target, p.quantity) {
             (ProbeTarget::Recovery { blade, index }, _) => {
-                let (rec, eval, x) = self.recovery.as_ref().expect("recovery probes");
+                let Some((rec, eval, x)) = self.recovery.as_ref() else {
+                    return Err(SimError::InvalidCase(format!(
+                        "probe `{}` needs the impeller's recovery rows",
+                        p.column
+                    )));
+                };
                 p.direction.dot(&eval.displacement(rec, index, blade, x))
             }
             (ProbeTarget::Casing { sector, index }, _) => {
