@@ -168,7 +168,8 @@ impl StageClock {
         } += dt;
     }
 }
-/// Scalar results of a run (the series go to the [`Recorder`]).
+/// Scalar results of a run (the series go to the
+/// [`Recorder`](crate::dynamics::recorder::Recorder)).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RunSummary {
     /// Time step h (s).

@@ -1,12 +1,10 @@
 //! The time loop (paper Figs. 4 and 11) as a [`Simulation`]: built once from a case by
 //! [`Simulation::new`] (the stability limit, both kernels, the casing surface, the load), then
-//! advanced by [`Simulation::step`], one method per box of the flowchart:
-//! [`predict`](Simulation::predict) both structures, rebuild the
-//! [`casing surface`](Simulation::casing_surface) from the predicted casing, [`project`](Simulation::project)
-//! every blade-tip node and take its gap, apply the abradable [`coating`](Simulation::coating)
-//! (Fig. 11), and when some gap is negative [`solve the contact`](Simulation::contact_solve)
-//! and [`correct`](Simulation::correct) both structures; then [`advance`](Simulation::advance)
-//! and [`record`](Simulation::record) a sample for the caller's [`Recorder`].
+//! advanced by [`Simulation::step`], one method per box of the flowchart: `predict` both
+//! structures, rebuild the casing surface (`casing_surface`) from the predicted casing,
+//! `project` every blade-tip node and take its gap, apply the abradable `coating` (Fig. 11),
+//! and when some gap is negative solve the contact (`contact_solve`) and `correct` both
+//! structures; then `advance` and `record` a sample for the caller's [`Recorder`].
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
@@ -616,8 +614,8 @@ fn check_stability(
 
 /// Gap tolerance of the contact correction, relative to the casing radius R: after the
 /// correction no contact candidate penetrates the corrected casing by more than
-/// `GAP_TOLERANCE · R` (m), active or not (the active set, and the re-corrections of
-/// [`Simulation::contact_solve`], are iterated to it). At R = 0.2 m that is 2e-13 m: about
+/// `GAP_TOLERANCE · R` (m) in the linearised gaps, active or not (the active set of the
+/// contact solve is iterated to it; imposed gaps are linear, so it holds exactly there). At R = 0.2 m that is 2e-13 m: about
 /// 10³ times the round-off of a gap `n · (x − S)` between points at that radius, and 1e-8 of
 /// a vibration level of 20 µm (the paper's residual check, §3.3.3).
 pub const GAP_TOLERANCE: f64 = 1e-12;
