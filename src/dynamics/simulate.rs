@@ -2363,13 +2363,11 @@ mod tests {
     /// One radial oscillator (1-sector ROM, one node, no modes) released outward with speed v0
     /// toward a rigid cylinder at clearance g0. Exact solution with the explicit Lagrange method
     /// (perfectly plastic impact): u = (v0/ω) sin ωt until u = g0 at t_c, then u = g0 cos ω(t − t_c).
-    #[test]
-    fn single_oscillator_impacting_a_rigid_cylinder_matches_the_analytic_solution() {
-        let (m, k) = (0.1, 4e6);
-        let r0 = 0.2;
-        let g0 = 1e-4;
+    /// One blade of one contact node at radius `r0` (m): mass `m` (kg) and stiffness `k`
+    /// (N/m) in each of its three directions, undamped.
+    fn oscillator_rom(m: f64, k: f64, r0: f64) -> CyclicRom {
         let n = 3;
-        let rom = CyclicRom {
+        CyclicRom {
             name: "oscillator".into(),
             component: Component::Impeller,
             n_sectors: 1,
@@ -2392,7 +2390,15 @@ mod tests {
             damping: Damping::Modal { ratio: 0.0 },
             provenance: serde_json::Value::Null,
             recovery: Default::default(),
-        };
+        }
+    }
+
+    #[test]
+    fn single_oscillator_impacting_a_rigid_cylinder_matches_the_analytic_solution() {
+        let (m, k) = (0.1, 4e6);
+        let r0 = 0.2;
+        let g0 = 1e-4;
+        let rom = oscillator_rom(m, k, r0);
         let casing = CasingModel::Rigid(RigidSurface {
             n_sectors: 64,
             meridian: vec![[r0 + g0, -0.01], [r0 + g0, 0.01]],
@@ -2466,31 +2472,7 @@ mod tests {
             width: 0.15,
             lobes: 1,
         };
-        let n = 3;
-        let rom = CyclicRom {
-            name: "oscillator".into(),
-            component: Component::Impeller,
-            n_sectors: 1,
-            contact_nodes: vec![ContactNode {
-                position: [r0, 0.0, 0.0],
-                id: None,
-                row: 0,
-            }],
-            harmonics: vec![HarmonicBlock {
-                nodal_diameter: 0,
-                n_modes: 0,
-                mass: HermitianMatrix::real(DMatrix::identity(n, n) * m),
-                stiffness: [
-                    HermitianMatrix::real(DMatrix::identity(n, n) * k),
-                    HermitianMatrix::real(DMatrix::zeros(n, n)),
-                    HermitianMatrix::real(DMatrix::zeros(n, n)),
-                ],
-            }],
-            modal_data: vec![],
-            damping: Damping::Modal { ratio: 0.0 },
-            provenance: serde_json::Value::Null,
-            recovery: Default::default(),
-        };
+        let rom = oscillator_rom(m, k, r0);
         let casing = CasingModel::ImposedGap(ImposedGap {
             profile: profile.clone(),
             direction: GapDirection::Radial,
