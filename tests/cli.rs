@@ -560,3 +560,43 @@ fn interrupted_run_exits_130_and_records_an_incomplete_scan() {
     assert!(job_files(&out) < 6);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A job past the spec's `job_time_limit_s` is stopped and recorded as failed with the limit
+/// and the simulated time it reached; the run exits 2. The jobs simulate 0.02 s (10⁵ steps),
+/// which no machine does within the 1 ms limit.
+#[test]
+fn jobs_past_the_wall_time_limit_fail_with_the_reason() {
+    let dir = tmp("timelimit");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_with(&dir, "spec", |v| {
+        v["scenario"]["duration_s"] = serde_json::json!(0.02);
+        v["grid"]["speed"]["values"] = serde_json::json!([2000]);
+        v["grid"]["friction"] = serde_json::json!([0.1]);
+        v["job_time_limit_s"] = serde_json::json!(0.001);
+    });
+    let out = dir.join("out");
+    let st = rubscan()
+        .args(["run", "--threads", "1"])
+        .arg(&spec)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert_eq!(st.status.code(), Some(2), "{err}");
+    let record = std::fs::read_dir(out.join("jobs"))
+        .unwrap()
+        .map(|e| std::fs::read_to_string(e.unwrap().path()).unwrap())
+        .next()
+        .unwrap();
+    let record: serde_json::Value = serde_json::from_str(&record).unwrap();
+    let reason = record["status"]["reason"].as_str().unwrap();
+    let prefix = "wall-time limit of 0.001 s exceeded after ";
+    assert!(reason.starts_with(prefix), "{reason}");
+    let simulated: f64 = reason[prefix.len()..]
+        .trim_end_matches(" s simulated")
+        .parse()
+        .unwrap();
+    assert!(simulated > 0.0 && simulated < 0.02, "{reason}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -5,13 +5,17 @@
 
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 
 use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
 use crate::dynamics::abradable::CoatingMaterial;
+use crate::dynamics::recorder::{RecordError, Recorder, Sample};
 use crate::dynamics::scenario::CoatingCase;
-use crate::dynamics::{Case, CasingModel, LobeLoad, RigidShape, RigidSurface, Simulation};
+use crate::dynamics::{
+    Case, CasingModel, LobeLoad, RigidShape, RigidSurface, SimError, Simulation,
+};
 use crate::io::timeseries::TimeSeriesWriter;
 use crate::model::rom::CyclicRom;
 use crate::sweep::aggregate::JobAggregator;
@@ -66,6 +70,59 @@ pub struct ModelSimulator {
     criticals: Vec<CriticalSpeed>,
     /// Where each job's time series goes (`<dir>/<job id>.parquet`), when asked.
     timeseries_dir: Option<PathBuf>,
+    /// Wall-clock limit of each job (s), `SweepSpec::job_time_limit_s`.
+    job_time_limit_s: Option<f64>,
+}
+
+/// Stops a simulation whose wall-clock time passes a limit: a recorder that fails the
+/// first sample after the deadline, so the time loop needs no hook of its own. Reading
+/// the clock (tens of ns) once per sample step is negligible next to a step.
+#[derive(Debug)]
+pub struct WallClockLimit {
+    limit_s: f64,
+    deadline: Option<Instant>,
+}
+
+impl WallClockLimit {
+    /// A limit of `limit_s` seconds from now; `None`: no limit.
+    pub fn new(limit_s: Option<f64>) -> Self {
+        let deadline =
+            limit_s.and_then(|s| Instant::now().checked_add(Duration::try_from_secs_f64(s).ok()?));
+        WallClockLimit {
+            limit_s: limit_s.unwrap_or(f64::INFINITY),
+            deadline,
+        }
+    }
+}
+
+/// The error of [`WallClockLimit`]: the job's failure reason.
+#[derive(Debug, thiserror::Error)]
+#[error("wall-time limit of {limit_s} s exceeded after {simulated_s:.6e} s simulated")]
+pub struct WallTimeExceeded {
+    /// The limit (s).
+    pub limit_s: f64,
+    /// Simulated time reached (s).
+    pub simulated_s: f64,
+}
+
+impl Recorder for WallClockLimit {
+    fn record(&mut self, sample: &Sample<'_>) -> Result<(), RecordError> {
+        match self.deadline {
+            Some(d) if Instant::now() >= d => Err(Box::new(WallTimeExceeded {
+                limit_s: self.limit_s,
+                simulated_s: sample.time,
+            })),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// A simulation error as a job's failure reason; a passed wall-time limit is said as such.
+fn failure_reason(e: SimError) -> String {
+    match e {
+        SimError::Record(r) if r.is::<WallTimeExceeded>() => r.to_string(),
+        e => e.to_string(),
+    }
 }
 
 /// Meridian of a rigid casing: the blade-tip contact rows `(r, z)` (leading → trailing edge)
@@ -167,7 +224,7 @@ impl ModelSimulator {
             impeller,
             casing,
             nominal_clearance,
-            ..
+            spec,
         } = resolved;
         let opts = CriterionOptions::default();
         let criticals = match &casing {
@@ -196,6 +253,7 @@ impl ModelSimulator {
             nominal_clearance,
             criticals,
             timeseries_dir: None,
+            job_time_limit_s: spec.job_time_limit_s,
         })
     }
 
@@ -329,21 +387,23 @@ impl JobSimulator for ModelSimulator {
         );
         let simulation =
             Simulation::new(&case, &self.impeller, &casing).map_err(|e| e.to_string())?;
+        // The clock starts with the time loop: building the case is not the job's run.
+        let mut limited = (WallClockLimit::new(self.job_time_limit_s), &mut rows);
         let summary = match &self.timeseries_dir {
-            None => simulation.run(&mut rows, Some(cancel)),
+            None => simulation.run(&mut limited, Some(cancel)),
             Some(dir) => {
                 std::fs::create_dir_all(dir)
                     .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
                 let path = dir.join(format!("{}.parquet", job.id));
                 let mut series = TimeSeriesWriter::create(&path).map_err(|e| format!("{e:#}"))?;
-                let summary = simulation.run(&mut (&mut rows, &mut series), Some(cancel));
+                let summary = simulation.run(&mut (&mut limited, &mut series), Some(cancel));
                 if summary.is_ok() {
                     series.finish().map_err(|e| format!("{e:#}"))?;
                 }
                 summary
             }
         }
-        .map_err(|e| e.to_string())?;
+        .map_err(failure_reason)?;
         let mut result = rows.finish(&summary)?;
         result.critical_speed = nearest(&self.criticals, case.omega);
         Ok(result)

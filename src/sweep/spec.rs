@@ -67,6 +67,11 @@ pub struct SweepSpec {
     pub numerics: Numerics,
     /// Parameter grid.
     pub grid: Grid,
+    /// Wall-clock limit (s) of each job: a job still running after it is stopped and recorded
+    /// as failed, with the simulated time it reached. Not part of the job ids (it does not
+    /// change a finished result). `None`: no limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub job_time_limit_s: Option<f64>,
 }
 
 /// The two structural models of a sweep.
@@ -587,6 +592,9 @@ impl SweepSpec {
             }
         }
         self.validate_zip(&mut issues);
+        if let Some(limit) = self.job_time_limit_s {
+            check_positive(&mut issues, "/job_time_limit_s", limit, " s");
+        }
         if issues.is_empty() {
             Ok(())
         } else {
@@ -1203,6 +1211,7 @@ mod tests {
         let mut spec = spec_from_value(base()).unwrap();
         spec.grid.friction = vec![MAX_FRICTION * 1.5];
         spec.numerics.decimation = 0;
+        spec.job_time_limit_s = Some(0.0);
         let mut paths: Vec<String> = spec
             .validate()
             .unwrap_err()
@@ -1211,7 +1220,22 @@ mod tests {
             .map(|i| i.path.clone())
             .collect();
         paths.sort();
-        assert_eq!(paths, ["/grid/friction/0", "/numerics/decimation"]);
+        assert_eq!(
+            paths,
+            [
+                "/grid/friction/0",
+                "/job_time_limit_s",
+                "/numerics/decimation"
+            ]
+        );
+        // The schema says the same of a spec file.
+        let mut v = base();
+        v["job_time_limit_s"] = serde_json::json!(-5);
+        let i = issues_of(v);
+        assert!(
+            i.iter().any(|s| s.starts_with("/job_time_limit_s: ")),
+            "{i:?}"
+        );
     }
 
     #[test]
@@ -1434,6 +1458,7 @@ mod tests {
                 }),
                 zip: vec![AxisName::Speed, AxisName::Friction],
             },
+            job_time_limit_s: Some(3600.0),
         };
         let mut b = a.clone();
         impeller.damping = crate::model::rom::Damping::Rayleigh {
