@@ -21,7 +21,9 @@ use crate::sweep::plots::{
 };
 use crate::sweep::probe_report::ProbeReport;
 use crate::sweep::simulator::ModelSimulator;
+use crate::sweep::slurm;
 use crate::sweep::spec::CasingSource;
+use crate::sweep::status::status as sweep_status;
 use crate::sweep::{
     MergeSummary, ResolvedSweep, RunOptions, RunSummary, SpecError, default_output_dir,
     load_records, load_spec, merge, parse_shard, plan, resolve, run_sweep,
@@ -74,6 +76,18 @@ pub enum AppError {
     /// Interrupted by Ctrl-C.
     #[error("interrupted")]
     Interrupted,
+    /// `merge` found planned jobs in no shard, or failed jobs.
+    #[error(
+        "merge: {missing} planned jobs have no record and {failed} failed; shards to look at:\n  {shards}"
+    )]
+    MergeIncomplete {
+        /// Planned jobs found in no shard.
+        missing: usize,
+        /// Failed jobs.
+        failed: usize,
+        /// One line per shard at fault.
+        shards: String,
+    },
 }
 
 impl AppError {
@@ -81,7 +95,9 @@ impl AppError {
     pub fn exit_code(&self) -> u8 {
         match self {
             AppError::Invalid(_) | AppError::Failed(_) => EXIT_INVALID,
-            AppError::JobsFailed { .. } | AppError::SimulationFailed(_) => EXIT_JOBS_FAILED,
+            AppError::JobsFailed { .. }
+            | AppError::SimulationFailed(_)
+            | AppError::MergeIncomplete { .. } => EXIT_JOBS_FAILED,
             AppError::Interrupted => EXIT_INTERRUPTED,
         }
     }
@@ -346,9 +362,11 @@ pub fn plan_text(spec_path: &Path) -> Result<String, AppError> {
 /// Options of `rubscan run`.
 #[derive(Clone, Debug, Default)]
 pub struct RunArgs {
-    /// Worker threads (0 = all cores).
-    pub threads: usize,
-    /// `i/n`: run only the jobs whose index ≡ i (mod n).
+    /// Worker threads (0 = all cores); `None`: `SLURM_CPUS_PER_TASK` inside a Slurm job,
+    /// else all cores.
+    pub threads: Option<usize>,
+    /// `i/n`: run only the jobs whose index ≡ i (mod n); `None`: the shard of the Slurm
+    /// array task when `SLURM_ARRAY_TASK_ID` is set (written to `<output>/shards/<i>-of-<n>`).
     pub shard: Option<String>,
     /// Output directory (default `results/<name>`).
     pub output: Option<PathBuf>,
@@ -362,16 +380,35 @@ pub struct RunArgs {
 /// and writes `results.parquet`, the manifest and plots. Failed jobs do not make this an
 /// error: see [`check_run`] for the exit status.
 pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
-    let shard = args.shard.as_deref().map(parse_shard).transpose()?;
+    let env = |k: &str| std::env::var(k).ok();
+    let explicit = args.shard.as_deref().map(parse_shard).transpose()?;
+    let from_slurm = match explicit {
+        Some(_) => None,
+        None => slurm::shard_from_env(&env)?,
+    };
+    let threads = match args.threads {
+        Some(n) => n,
+        None => slurm::threads_from_env(&env)?.unwrap_or(0),
+    };
     let resolved = load_resolved(spec_path)?;
     let spec = resolved.spec.clone();
-    let mut opts = RunOptions::new(
-        args.output
-            .clone()
-            .unwrap_or_else(|| default_output_dir(Path::new("."), &spec)),
-    );
-    opts.threads = args.threads;
-    opts.shard = shard;
+    let base = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output_dir(Path::new("."), &spec));
+    let mut opts = RunOptions::new(match from_slurm {
+        Some((i, n)) => slurm::shard_dir(&base, i, n),
+        None => base,
+    });
+    if let Some((i, n)) = from_slurm {
+        eprintln!(
+            "[sweep] Slurm array task: shard {i}/{n}, {} threads -> {}",
+            threads,
+            opts.output_dir.display()
+        );
+    }
+    opts.threads = threads;
+    opts.shard = explicit.or(from_slurm);
     opts.progress = std::io::stderr().is_terminal();
     opts.retry_failed = args.retry_failed;
     cancel_on_ctrl_c(opts.cancel.clone());
@@ -498,16 +535,88 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
     Ok(s)
 }
 
-/// `rubscan merge`: combines shard outputs into the table a single run gives.
-pub fn merge_shards(shards: &[PathBuf], output: &Path) -> Result<MergeSummary> {
+/// `rubscan merge`: combines shard outputs into the table a single run gives. The merged
+/// table is written even when shards are unfinished or have failed jobs; then the error
+/// names those shards ([`AppError::MergeIncomplete`], exit status 2).
+pub fn merge_shards(shards: &[PathBuf], output: &Path) -> Result<MergeSummary, AppError> {
     let summary = merge(shards, output)?;
     eprintln!(
-        "{} of {} jobs found -> {}",
+        "{} of {} jobs found ({} failed) -> {}",
         summary.found,
         summary.planned,
+        summary.failed,
         summary.results_path.display()
     );
-    Ok(summary)
+    if summary.missing.is_empty() && summary.failed == 0 {
+        return Ok(summary);
+    }
+    Err(AppError::MergeIncomplete {
+        missing: summary.missing.len(),
+        failed: summary.failed,
+        shards: summary.shard_problems.join("\n  "),
+    })
+}
+
+/// `rubscan status`: done, failed and remaining jobs of a sweep output directory, per shard,
+/// with an estimate of the time left.
+pub fn status(output: &Path) -> Result<String> {
+    Ok(sweep_status(output)?.to_string())
+}
+
+/// Options of `rubscan slurm`.
+#[derive(Clone, Debug, Default)]
+pub struct SlurmArgs {
+    /// Array tasks (= shards).
+    pub tasks: usize,
+    /// CPUs (worker threads) per task.
+    pub cpus_per_task: usize,
+    /// `--time` of each task, e.g. `02:00:00`.
+    pub time: Option<String>,
+    /// `--partition`.
+    pub partition: Option<String>,
+    /// Output directory (default `results/<name>`).
+    pub output: Option<PathBuf>,
+    /// Submit with sbatch instead of printing the commands.
+    pub submit: bool,
+}
+
+/// `rubscan slurm`: validates the spec with its models, writes the array and merge scripts
+/// beside the output directory, and prints the sbatch commands, or submits them and prints
+/// the job ids.
+pub fn slurm(spec_path: &Path, args: &SlurmArgs) -> Result<String, AppError> {
+    let spec = load_resolved(spec_path)?.spec;
+    let absolute = |p: &Path| {
+        std::path::absolute(p).with_context(|| format!("cannot make {} absolute", p.display()))
+    };
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output_dir(Path::new("."), &spec));
+    let job = slurm::ArrayJob {
+        name: spec.name.clone(),
+        rubscan: std::env::current_exe().context("cannot locate the rubscan executable")?,
+        spec: absolute(spec_path)?,
+        output: absolute(&output)?,
+        tasks: args.tasks,
+        cpus_per_task: args.cpus_per_task,
+        time: args.time.clone(),
+        partition: args.partition.clone(),
+    };
+    job.validate()?;
+    let (array, merge) = job.write()?;
+    let mut s = format!(
+        "wrote {} ({} tasks) and {}\n",
+        array.display(),
+        job.tasks,
+        merge.display()
+    );
+    if args.submit {
+        let (a, m) = job.submit()?;
+        let _ = writeln!(s, "array job {a}\nmerge job {m}");
+    } else {
+        s.push_str(&job.submit_commands());
+    }
+    Ok(s)
 }
 
 /// `rubscan model import`: imports a CalculiX or Matrix Market model (spec JSON), reduces it

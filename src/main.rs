@@ -4,14 +4,15 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use rubscan::app::{self, AppError, ImportFormat, RunArgs};
+use rubscan::app::{self, AppError, ImportFormat, RunArgs, SlurmArgs};
 
 /// Exit statuses, shown by `rubscan --help`.
 const EXIT_STATUS_HELP: &str = "\
 Exit status:
   0    success (every job ran and succeeded)
   1    invalid input (spec, model file, arguments) or another error; nothing ran
-  2    the sweep ran but some jobs failed (reasons in jobs/<id>.json and manifest.json)
+  2    the sweep ran but some jobs failed (reasons in jobs/<id>.json and manifest.json);
+       merge: some shards unfinished or with failed jobs (named)
   130  interrupted (Ctrl-C); finished jobs are kept, a re-run resumes";
 
 /// Critical-speed scans of a bladed impeller rubbing inside a flexible casing.
@@ -49,10 +50,13 @@ enum Command {
     Run {
         /// Sweep spec (JSON).
         spec: PathBuf,
-        /// Worker threads (0 = all cores).
-        #[arg(long, default_value_t = 0)]
-        threads: usize,
-        /// Run only shard i of n (jobs with index ≡ i mod n), e.g. 0/4.
+        /// Worker threads (0 = all cores; default: SLURM_CPUS_PER_TASK in a Slurm job, else
+        /// all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Run only shard i of n (jobs with index ≡ i mod n), e.g. 0/4. Default in a Slurm
+        /// array task: shard (SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN) / SLURM_ARRAY_TASK_STEP
+        /// of SLURM_ARRAY_TASK_COUNT, written to <output>/shards/<i>-of-<n>.
         #[arg(long)]
         shard: Option<String>,
         /// Output directory (default results/<name>).
@@ -74,6 +78,35 @@ enum Command {
         /// Output directory.
         #[arg(short, long)]
         output: PathBuf,
+    },
+    /// Done, failed and remaining jobs of a sweep output directory (per shard), with an ETA.
+    Status {
+        /// Sweep output directory (of `run`, or the parent of Slurm shard directories).
+        output: PathBuf,
+    },
+    /// Write (and optionally submit) a Slurm job array running the sweep's shards, plus a
+    /// merge job after it.
+    Slurm {
+        /// Sweep spec (JSON).
+        spec: PathBuf,
+        /// Array tasks, one shard each.
+        #[arg(long)]
+        tasks: usize,
+        /// CPUs (worker threads) per task.
+        #[arg(long, default_value_t = 1)]
+        cpus_per_task: usize,
+        /// Time limit of each task, e.g. 02:00:00.
+        #[arg(long)]
+        time: Option<String>,
+        /// Slurm partition.
+        #[arg(long)]
+        partition: Option<String>,
+        /// Output directory (default results/<name>); the scripts go to <output>.slurm/.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Submit with sbatch and print the job ids (default: print the sbatch commands).
+        #[arg(long)]
+        submit: bool,
     },
     /// Critical speeds of the linear interaction criterion and the Campbell diagram.
     Campbell {
@@ -184,7 +217,28 @@ fn dispatch(command: Command) -> Result<(), AppError> {
             },
         )
         .and_then(|summary| app::check_run(&summary)),
-        Command::Merge { shards, output } => Ok(app::merge_shards(&shards, &output).map(drop)?),
+        Command::Merge { shards, output } => app::merge_shards(&shards, &output).map(drop),
+        Command::Status { output } => Ok(app::status(&output).map(|text| print!("{text}"))?),
+        Command::Slurm {
+            spec,
+            tasks,
+            cpus_per_task,
+            time,
+            partition,
+            output,
+            submit,
+        } => app::slurm(
+            &spec,
+            &SlurmArgs {
+                tasks,
+                cpus_per_task,
+                time,
+                partition,
+                output,
+                submit,
+            },
+        )
+        .map(|text| print!("{text}")),
         Command::Campbell { spec, output } => {
             app::campbell(&spec, &output).map(|text| print!("{text}"))
         }

@@ -17,7 +17,9 @@ pub mod probe_report;
 pub mod runner;
 pub mod schema;
 pub mod simulator;
+pub mod slurm;
 pub mod spec;
+pub mod status;
 #[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
 pub mod table;

@@ -92,6 +92,11 @@ pub struct MergeSummary {
     pub found: usize,
     /// Ids of planned jobs found nowhere.
     pub missing: Vec<String>,
+    /// Finished jobs that failed.
+    pub failed: usize,
+    /// One line per shard directory that is not complete and ok: not started (no
+    /// manifest), unfinished (jobs of its shard without a record) or with failed jobs.
+    pub shard_problems: Vec<String>,
     /// Path of the merged results table.
     pub results_path: PathBuf,
 }
@@ -314,6 +319,20 @@ pub fn run_sweep(
         }
     }
 
+    // A manifest from the start, so that `rubscan status` and `merge` know the spec and
+    // shard of a run still going (or killed); it says incomplete until the end.
+    let ctx = ManifestContext {
+        spec,
+        plan: &plan,
+        opts,
+        started_unix_s,
+    };
+    let records = load_records(out, shard_jobs.iter().copied());
+    let mut early = summarise(&plan, &shard_jobs, &records, skipped, 0, false, t0, out);
+    // Failed jobs about to be retried are not finished yet.
+    early.unfinished = early.unfinished.max(pending.len());
+    ctx.write(out, &early)?;
+
     let reporter = Reporter::new(pending.len(), opts.progress);
     if skipped > 0 {
         reporter.log(&format!(
@@ -357,40 +376,81 @@ pub fn run_sweep(
     }
 
     let records = load_records(out, shard_jobs.iter().copied());
+    let cancelled = opts.cancel.load(Ordering::SeqCst);
+    let ran = ran.into_inner();
+    let summary = summarise(
+        &plan,
+        &shard_jobs,
+        &records,
+        skipped,
+        ran,
+        cancelled,
+        t0,
+        out,
+    );
+    write_results(&summary.results_path, &records)?;
+    ctx.write(out, &summary)?;
+    Ok(summary)
+}
+
+/// The summary of a shard's run from the records of its finished jobs.
+#[allow(clippy::too_many_arguments)]
+fn summarise(
+    plan: &Plan,
+    shard_jobs: &[&Job],
+    records: &[(usize, JobRecord)],
+    skipped: usize,
+    ran: usize,
+    cancelled: bool,
+    t0: Instant,
+    out: &Path,
+) -> RunSummary {
     let ok = records.iter().filter(|(_, r)| r.is_ok()).count();
-    let results_path = out.join("results.parquet");
-    write_results(&results_path, &records)?;
-    let summary = RunSummary {
+    RunSummary {
         planned: plan.jobs.len(),
         in_shard: shard_jobs.len(),
         skipped,
-        ran: ran.into_inner(),
+        ran,
         ok,
         failed: records.len() - ok,
         unfinished: shard_jobs.len() - records.len(),
-        cancelled: opts.cancel.load(Ordering::SeqCst),
+        cancelled,
         wall_time_s: t0.elapsed().as_secs_f64(),
         job_time_s_total: records.iter().map(|(_, r)| r.wall_time_s).sum(),
-        results_path,
-    };
-    let manifest = Manifest {
-        rubscan_version: env!("CARGO_PKG_VERSION").into(),
-        sweep: spec.name.clone(),
-        spec: spec.clone(),
-        shard: opts.shard,
-        merged_from: Vec::new(),
-        threads: opts.threads,
-        steps_per_job: plan.steps_per_job,
-        total_steps: plan.total_steps,
-        complete: summary.unfinished == 0,
-        failed: summary.failed,
-        all_ok: summary.unfinished == 0 && summary.failed == 0,
-        summary: summary.clone(),
-        started_unix_s,
-    };
-    write_json_atomic(&out.join("manifest.json"), &manifest)
-        .context("cannot write manifest.json")?;
-    Ok(summary)
+        results_path: out.join("results.parquet"),
+    }
+}
+
+/// What the manifest of a run says besides its summary.
+struct ManifestContext<'a> {
+    spec: &'a SweepSpec,
+    plan: &'a Plan,
+    opts: &'a RunOptions,
+    started_unix_s: f64,
+}
+
+impl ManifestContext<'_> {
+    /// Writes `<out>/manifest.json` for `summary` (atomically).
+    fn write(&self, out: &Path, summary: &RunSummary) -> Result<()> {
+        let complete = summary.unfinished == 0;
+        let manifest = Manifest {
+            rubscan_version: env!("CARGO_PKG_VERSION").into(),
+            sweep: self.spec.name.clone(),
+            spec: self.spec.clone(),
+            shard: self.opts.shard,
+            merged_from: Vec::new(),
+            threads: self.opts.threads,
+            steps_per_job: self.plan.steps_per_job,
+            total_steps: self.plan.total_steps,
+            complete,
+            failed: summary.failed,
+            all_ok: complete && summary.failed == 0,
+            summary: summary.clone(),
+            started_unix_s: self.started_unix_s,
+        };
+        write_json_atomic(&out.join("manifest.json"), &manifest)
+            .context("cannot write manifest.json")
+    }
 }
 
 /// Reads `<dir>/manifest.json`.
@@ -409,18 +469,27 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest> {
 pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     let started_unix_s = now_unix_s();
     let t0 = Instant::now();
-    let Some(first) = shard_dirs.first() else {
+    if shard_dirs.is_empty() {
         bail!("merge: no shard directory given")
+    }
+    // A shard that never started has no manifest: the others still name the spec.
+    let manifests: Vec<Option<Manifest>> =
+        shard_dirs.iter().map(|d| read_manifest(d).ok()).collect();
+    let Some(manifest) = manifests.iter().flatten().next().cloned() else {
+        bail!(
+            "merge: none of the {} shard directories has a readable manifest.json (not started?), e.g. {}",
+            shard_dirs.len(),
+            shard_dirs[0].display()
+        );
     };
-    let manifest = read_manifest(first)?;
     let spec_json = canonical_json(&serde_json::to_value(&manifest.spec)?);
-    for d in &shard_dirs[1..] {
-        let m = read_manifest(d)?;
-        if canonical_json(&serde_json::to_value(&m.spec)?) != spec_json {
+    for (d, m) in shard_dirs.iter().zip(&manifests) {
+        if let Some(m) = m
+            && canonical_json(&serde_json::to_value(&m.spec)?) != spec_json
+        {
             bail!(
-                "merge: {} was produced by a different spec than {}",
-                d.display(),
-                first.display()
+                "merge: {} was produced by a different spec than the other shards",
+                d.display()
             );
         }
     }
@@ -476,10 +545,48 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     };
     write_json_atomic(&out_dir.join("manifest.json"), &out_manifest)
         .context("cannot write manifest.json")?;
+    let failed = out_manifest.failed;
     Ok(MergeSummary {
         planned: plan.jobs.len(),
         found: records.len(),
         missing,
+        failed,
+        shard_problems: shard_problems(shard_dirs, &manifests, &plan),
         results_path,
     })
+}
+
+/// What is wrong with each shard directory of a merge (see [`MergeSummary::shard_problems`]).
+fn shard_problems(dirs: &[PathBuf], manifests: &[Option<Manifest>], plan: &Plan) -> Vec<String> {
+    let mut out = Vec::new();
+    for (d, m) in dirs.iter().zip(manifests) {
+        let Some(m) = m else {
+            out.push(format!("{}: not started (no manifest.json)", d.display()));
+            continue;
+        };
+        let label = m
+            .shard
+            .map_or("unsharded run".into(), |(i, n)| format!("shard {i}/{n}"));
+        let jobs = plan
+            .jobs
+            .iter()
+            .filter(|j| m.shard.is_none_or(|(i, n)| j.index % n == i));
+        let n_jobs = jobs.clone().count();
+        let records = load_records(d, jobs);
+        let failed = records.iter().filter(|(_, r)| !r.is_ok()).count();
+        let unfinished = n_jobs - records.len();
+        if unfinished > 0 {
+            out.push(format!(
+                "{} ({label}): unfinished, {unfinished} of {n_jobs} jobs have no record",
+                d.display()
+            ));
+        }
+        if failed > 0 {
+            out.push(format!(
+                "{} ({label}): {failed} of {n_jobs} jobs failed (reasons in its jobs/<id>.json)",
+                d.display()
+            ));
+        }
+    }
+    out
 }
