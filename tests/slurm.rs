@@ -275,3 +275,200 @@ fn slurm_scripts_run_by_hand_give_the_table_of_a_single_run() {
         std::fs::remove_dir_all(d).unwrap();
     }
 }
+
+/// States of the jobs (array tasks) of Slurm job `id`, from `scontrol show job -o`.
+fn job_states(id: &str) -> Vec<String> {
+    let o = Command::new("scontrol")
+        .args(["show", "job", "-o", id])
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .filter_map(|l| {
+            let state = l
+                .split_whitespace()
+                .find_map(|f| f.strip_prefix("JobState="))?;
+            let code = l
+                .split_whitespace()
+                .find_map(|f| f.strip_prefix("ExitCode="))?;
+            Some(format!("{state} {code}"))
+        })
+        .collect()
+}
+
+/// Waits (at most 5 min) until every task of job `id` has left the queue; returns their
+/// states (`COMPLETED 0:0`, `FAILED 2:0`, …).
+fn wait_for(id: &str) -> Vec<String> {
+    let start = std::time::Instant::now();
+    loop {
+        let states = job_states(id);
+        let active = |s: &String| {
+            ["PENDING", "RUNNING", "CONFIGURING", "COMPLETING"]
+                .iter()
+                .any(|a| s.starts_with(a))
+        };
+        if !states.is_empty() && !states.iter().any(active) {
+            return states;
+        }
+        assert!(
+            start.elapsed().as_secs() < 300,
+            "job {id} still queued after 5 min: {states:?}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+}
+
+fn records_in(dir: &Path) -> usize {
+    std::fs::read_dir(dir.join("jobs")).map_or(0, |d| {
+        d.filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.file_name().to_string_lossy().ends_with(".json"))
+        })
+        .count()
+    })
+}
+
+/// `rubscan slurm --submit` of a 2-task array; returns (array id, merge id).
+fn submit(spec: &Path, out: &Path) -> (String, String) {
+    let o = rubscan()
+        .args(["slurm", "--tasks", "2", "--cpus-per-task", "1", "--submit"])
+        .arg(spec)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}{text}", stderr(&o));
+    let id = |key: &str| {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .unwrap_or_else(|| panic!("no {key:?} in {text}"))
+            .trim()
+            .to_string()
+    };
+    (id("array job "), id("merge job "))
+}
+
+/// The real scheduler (needs `RUBSCAN_SLURM_TEST=1` and a cluster started by
+/// `.ci/slurm/start.sh`; CI runs `.ci/slurm/test.sh`): the small sweep as a 2-task array plus
+/// its merge gives the table of a local run; then an array task killed with `scancel` makes
+/// the merge fail naming its shard, and resubmitting only that task then the merge gives the
+/// table of an uninterrupted run.
+#[test]
+fn real_slurm_array_merge_and_scancel_resume() {
+    if std::env::var("RUBSCAN_SLURM_TEST").as_deref() != Ok("1") {
+        eprintln!(
+            "\n*** SKIPPED real_slurm_array_merge_and_scancel_resume: needs RUBSCAN_SLURM_TEST=1 and a \
+             running Slurm (.ci/slurm/start.sh; CI runs .ci/slurm/test.sh) ***\n"
+        );
+        return;
+    }
+    let sinfo = Command::new("sinfo").args(["-h", "-o", "%t"]).output();
+    match &sinfo {
+        Ok(o) if o.status.success() && String::from_utf8_lossy(&o.stdout).contains("idle") => {}
+        _ => panic!(
+            "Slurm is not up (sinfo shows no idle node): {sinfo:?}; start it with .ci/slurm/start.sh"
+        ),
+    }
+    let dir = tmp("real");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = std::fs::canonicalize(SMALL).unwrap();
+    let local = |spec: &Path, out: &Path| {
+        let o = rubscan()
+            .arg("run")
+            .arg(spec)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+
+    // 1. The array and its merge.
+    let out = dir.join("array");
+    let (array, merge) = submit(&spec, &out);
+    local(&spec, &dir.join("local"));
+    let merged = wait_for(&merge);
+    assert_eq!(merged, ["COMPLETED 0:0"], "merge job {merge}");
+    assert_eq!(
+        wait_for(&array),
+        ["COMPLETED 0:0", "COMPLETED 0:0"],
+        "array {array}"
+    );
+    assert_eq!(
+        table_without_timing(&out),
+        table_without_timing(&dir.join("local"))
+    );
+
+    // 2. Task 1 killed with scancel after its first job; jobs of 0.01 s simulated (~5x the
+    //    small ones) leave time to catch it between its first and last job.
+    let long: serde_json::Value = {
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(SMALL).unwrap()).unwrap();
+        v["scenario"]["duration_s"] = serde_json::json!(0.01);
+        v
+    };
+    let long_spec = dir.join("long.json");
+    std::fs::write(&long_spec, long.to_string()).unwrap();
+    let out = dir.join("killed");
+    let (array, merge) = submit(&long_spec, &out);
+    let shard1 = out.join("shards/1-of-2");
+    let start = std::time::Instant::now();
+    while records_in(&shard1) < 1 {
+        assert!(
+            start.elapsed().as_secs() < 300,
+            "task 1 made no record in 5 min"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let o = Command::new("scancel")
+        .arg(format!("{array}_1"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    local(&long_spec, &dir.join("long-local"));
+    assert_eq!(
+        wait_for(&merge),
+        ["FAILED 2:0"],
+        "merge after a cancelled task"
+    );
+    let killed_after = records_in(&shard1);
+    assert!(killed_after < 3, "scancel landed after task 1 finished");
+    let logs = out.with_file_name("killed.slurm").join("logs");
+    let merge_log =
+        std::fs::read_to_string(logs.join(format!("rubscan-small-merge-{merge}.out"))).unwrap();
+    assert!(
+        merge_log.contains("1-of-2 (shard 1/2): unfinished"),
+        "{merge_log}"
+    );
+
+    // 3. Only task 1 resubmitted, then the merge: the table of the uninterrupted run.
+    let scripts = out.with_file_name("killed.slurm");
+    let resumed =
+        rubscan::sweep::slurm::sbatch(&["--array=1".into()], &scripts.join("array.sbatch"))
+            .unwrap();
+    let merge = rubscan::sweep::slurm::sbatch(
+        &[format!("--dependency=afterany:{resumed}")],
+        &scripts.join("merge.sbatch"),
+    )
+    .unwrap();
+    assert_eq!(
+        wait_for(&merge),
+        ["COMPLETED 0:0"],
+        "merge after the resume"
+    );
+    assert_eq!(wait_for(&resumed), ["COMPLETED 0:0"]);
+    let task_log =
+        std::fs::read_to_string(logs.join(format!("rubscan-small-{resumed}_1.out"))).unwrap();
+    assert!(
+        task_log.contains(&format!(
+            "resuming: {killed_after} of 3 jobs already finished"
+        )),
+        "{task_log}"
+    );
+    assert_eq!(
+        table_without_timing(&out),
+        table_without_timing(&dir.join("long-local"))
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
