@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Starts a one-node Slurm cluster on this machine for the Slurm test (tests/slurm.rs):
 # installs Debian's slurmctld, slurmd and munge, writes a minimal slurm.conf (this host, its
-# CPUs, no cgroups), starts munged, slurmctld and slurmd as plain daemons (no systemd) and
+# CPUs, no cgroups; daemons on the loopback address, so no name resolution is needed), starts munged, slurmctld and slurmd as plain daemons (no systemd) and
 # waits until `sinfo` shows the node idle. Idempotent: a running cluster is left as it is.
 # Exits non-zero, saying why, when the daemons cannot start.
 set -euo pipefail
@@ -44,7 +44,7 @@ $SUDO mkdir -p "$state/ctld" "$state/d" /etc/slurm
 $SUDO tee "$conf" >/dev/null <<CONF
 $marker
 ClusterName=rubscan
-SlurmctldHost=$host
+SlurmctldHost=$host(127.0.0.1)
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
@@ -66,7 +66,7 @@ SwitchType=switch/none
 ReturnToService=2
 KillWait=5
 MinJobAge=3600
-NodeName=$host CPUs=$cpus RealMemory=$mem_mb State=UNKNOWN
+NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$mem_mb State=UNKNOWN
 PartitionName=debug Nodes=$host Default=YES MaxTime=INFINITE State=UP
 CONF
 

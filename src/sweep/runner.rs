@@ -464,8 +464,9 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest> {
 /// Merges the outputs of shard runs (each a [`run_sweep`] output directory of the same
 /// spec) into `out_dir`: job records are copied, and `results.parquet` / `manifest.json`
 /// are written for the whole plan, identical to what a single unsharded run writes.
-/// Planned jobs found in no shard are listed in the summary (and the manifest is
-/// marked incomplete); they do not make the merge fail.
+/// Planned jobs found in no shard, failed jobs and the shard directories at fault (not
+/// started, unfinished, with failed jobs) are listed in the summary and the manifest is
+/// marked incomplete; they do not make this function fail (`rubscan merge` then exits 2).
 pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     let started_unix_s = now_unix_s();
     let t0 = Instant::now();
