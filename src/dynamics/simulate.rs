@@ -17,7 +17,7 @@ use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
-use crate::dynamics::numerics::KernelChoice;
+use crate::dynamics::numerics::{Boundary, KernelChoice};
 use crate::dynamics::probes::{
     CoatingOutput, Probe, ProbeQuantity, ProbeTarget, RecoveryEval, RunSummary, SimulationOutput,
     Stage, StageClock, resolve_probes,
@@ -215,9 +215,16 @@ struct Blades {
     te: usize,
     /// `R(θ_s)` per blade.
     rot: Vec<Matrix3<f64>>,
-    /// Tip nodes Γ (m, fixed frame) of this step and of the previous one.
+    /// Tip nodes Γ (m, fixed frame) of this step and of the previous one (the slip
+    /// increments of eq. 15 are measured from it).
     nodes: Vec<Vector3<f64>>,
     nodes_prev: Vec<Vector3<f64>>,
+    /// With a massless boundary, the predicted tip nodes of this step, which become
+    /// `nodes_prev`: the boundary's static response to the contact forces is found again
+    /// every step, so its appearance in the corrected nodes is not a motion of the
+    /// material, and slip measured from them would follow the last friction force instead
+    /// of the sliding. Empty with the paper's formulation.
+    nodes_predicted: Vec<Vector3<f64>>,
 }
 
 impl Blades {
@@ -274,6 +281,10 @@ impl Blades {
             rot,
             nodes: vec![Vector3::zeros(); nn],
             nodes_prev,
+            nodes_predicted: match case.numerics.boundary {
+                Boundary::Mass => Vec::new(),
+                Boundary::Massless => vec![Vector3::zeros(); nn],
+            },
         })
     }
 
@@ -700,9 +711,10 @@ impl<'a> Simulation<'a> {
         impeller: &CyclicRom,
         casing: &CasingModel,
     ) -> Result<Self, SimError> {
-        let st_i = Structure::new(impeller, case.omega)?;
+        let boundary = case.numerics.boundary;
+        let st_i = Structure::new(impeller, case.omega)?.with_boundary(boundary);
         let st_c = match casing {
-            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?),
+            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?.with_boundary(boundary)),
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
         let (limit, steps_per_revolution) = check_stability(case, &st_i, st_c.as_ref())?;
@@ -903,6 +915,11 @@ impl<'a> Simulation<'a> {
     /// nodes that may be closer than the projector's margin; or their imposed gaps.
     fn project(&mut self) -> Result<(), SimError> {
         self.blades.place(&self.r_om);
+        if !self.blades.nodes_predicted.is_empty() {
+            self.blades
+                .nodes_predicted
+                .copy_from_slice(&self.blades.nodes);
+        }
         let p = &mut self.projector;
         let cs = match &self.casing {
             Casing::Surface(cs) => cs,
@@ -1281,7 +1298,11 @@ impl<'a> Simulation<'a> {
     /// increments, commits the coating, and checks the state is finite.
     fn advance(&mut self) -> Result<(), SimError> {
         let b = &mut self.blades;
-        b.nodes_prev.copy_from_slice(&b.nodes);
+        if b.nodes_predicted.is_empty() {
+            b.nodes_prev.copy_from_slice(&b.nodes);
+        } else {
+            std::mem::swap(&mut b.nodes_prev, &mut b.nodes_predicted);
+        }
         if let Some(cs) = self.casing.surface_mut()
             && cs.flexible.is_some()
         {
@@ -2288,6 +2309,7 @@ mod tests {
                 newton_tolerance: eps,
                 kernel,
                 decimation: 5,
+                boundary: Default::default(),
             },
             coating: None,
         }
