@@ -2478,6 +2478,123 @@ mod tests {
         assert!((e_end - 0.5 * k * g0 * g0).abs() < 1e-2 * 0.5 * k * g0 * g0);
     }
 
+    /// A massless contact node tied by a spring `k_c` to a mass `m` on a spring `k₀` (each
+    /// direction), as a two-node ROM whose boundary node carries `m_b = 10⁻⁸ m`: boundary
+    /// first, the mass as its "modal" part.
+    fn spring_mass_rom(m: f64, k0: f64, kc: f64, r0: f64) -> CyclicRom {
+        let mb = 1e-8 * m;
+        let mut rom = oscillator_rom(m, k0, r0);
+        let (mut mass, mut stiffness) = (DMatrix::zeros(6, 6), DMatrix::zeros(6, 6));
+        for d in 0..3 {
+            mass[(d, d)] = mb;
+            mass[(3 + d, 3 + d)] = m;
+            stiffness[(d, d)] = kc;
+            stiffness[(3 + d, 3 + d)] = kc + k0;
+            stiffness[(d, 3 + d)] = -kc;
+            stiffness[(3 + d, d)] = -kc;
+        }
+        let h = &mut rom.harmonics[0];
+        h.n_modes = 3;
+        h.mass = HermitianMatrix::real(mass);
+        h.stiffness[0] = HermitianMatrix::real(stiffness);
+        for k in &mut h.stiffness[1..] {
+            *k = HermitianMatrix::real(DMatrix::zeros(6, 6));
+        }
+        rom
+    }
+
+    /// [`spring_mass_rom`] thrown outward at `v₀` against a rigid cylinder `g₀` away, with a
+    /// massless boundary, at a step 20 times its mass formulation's limit. Exact motion: free
+    /// flight at `ω₀ = √(k₀/m)` (the unloaded spring carries the node with the mass) until the
+    /// node reaches `g₀`; contact, the node held at `g₀` and the mass at `ω₁ = √((k₀ + k_c)/m)`
+    /// about `x_e = k_c g₀/(k₀ + k_c)`, while `k_c (x − g₀) ≥ 0`; free flight again. Without
+    /// damping or friction the energy (the mass's, and the spring's at the held node) never
+    /// grows.
+    #[test]
+    fn massless_boundary_oscillator_against_a_rigid_wall_matches_the_analytic_solution() {
+        let (m, k0, kc, r0, g0) = (0.1, 4e6, 1.2e7, 0.2, 1e-4);
+        let rom = spring_mass_rom(m, k0, kc, r0);
+        let casing = CasingModel::Rigid(RigidSurface {
+            n_sectors: 64,
+            meridian: vec![[r0 + g0, -0.01], [r0 + g0, 0.01]],
+            shape: RigidShape::Lobes {
+                lobes: 0,
+                amplitude: 0.0,
+            },
+        });
+        let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
+        let v0 = 2.0 * g0 * w0;
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let massless = st.clone().with_boundary(Boundary::Massless);
+        let h = 0.02 / w1;
+        assert!(h > 20.0 * st.stability_limit() && h < 0.01 * massless.stability_limit());
+        let case = Case {
+            omega: 0.0,
+            duration: 2.0 * 2.0 * PI / w0,
+            friction: 0.0,
+            load: None,
+            clearance_offset: vec![],
+            casing_probes: vec![],
+            probes: vec![],
+            initial_velocity: InitialVelocity {
+                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: h,
+                decimation: 1,
+                newton_tolerance: 1e-12,
+                boundary: Boundary::Massless,
+                ..Default::default()
+            },
+            coating: None,
+        };
+        let out = simulate(&case, &rom, &casing, None).unwrap();
+        // Phase times: reach the wall at t₁, leave it 2 atan2(b, a)/ω₁ later; then free flight
+        // from phase π − ω₀t₁ to 2π (back at 0 with +v₀): the period.
+        let t1 = (g0 * w0 / v0).asin() / w0;
+        let v1 = v0 * (w0 * t1).cos();
+        let xe = kc * g0 / (k0 + kc);
+        let (a, b) = (g0 - xe, v1 / w1);
+        let t2 = t1 + 2.0 * b.atan2(a) / w1;
+        let period = t2 + (PI + w0 * t1) / w0;
+        let exact = |t: f64| {
+            let t = t % period;
+            if t < t1 {
+                v0 / w0 * (w0 * t).sin()
+            } else if t < t2 {
+                g0
+            } else {
+                v0 / w0 * (PI - w0 * t1 + w0 * (t - t2)).sin()
+            }
+        };
+        // Timing errors of a step at the switches: a few ω₁ h g₀ (ω₁ h = 0.02).
+        let tol = 5.0 * w1 * h * g0;
+        let mut worst = 0.0f64;
+        for (t, u) in out.time.iter().zip(&out.blade_le_radial[0]) {
+            worst = worst.max((u - exact(*t)).abs());
+            assert!(*u <= g0 * (1.0 + 1e-9), "penetration at t = {t}: u = {u}");
+        }
+        assert!(worst <= tol, "max error {worst:e} > {tol:e}");
+        assert!(out.summary.contact_steps > 10);
+        assert!(out.summary.max_residual_penetration <= 1e-12 * g0);
+        let e = &out.impeller_energy;
+        let total: Vec<f64> = e
+            .kinetic
+            .iter()
+            .zip(&e.strain)
+            .map(|(k, s)| k + s)
+            .collect();
+        for w in total.windows(2) {
+            assert!(
+                w[1] <= w[0] * (1.0 + 1e-12),
+                "energy grew: {} -> {}",
+                w[0],
+                w[1]
+            );
+        }
+    }
+
     /// A one-node blade (mass m, stiffness k in every direction) at rest, sweeping past one
     /// Gaussian lobe of an imposed-gap casing without friction. The exact motion alternates
     /// free flight `u = u₀ cos ω(t−t₀) + v₀/ω sin ω(t−t₀)` and contact `u = g(t)` while the
