@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, anyhow};
 
-use crate::dynamics::{SimError, Simulation};
+use crate::dynamics::{Boundary, SimError, Simulation};
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
 use crate::io::timeseries::TimeSeriesWriter;
@@ -143,6 +143,13 @@ pub(crate) fn describe_rom(rom: &CyclicRom) -> String {
                 "Ω = {omega:.1} rad/s: highest ROM frequency {:.4e} rad/s, explicit stability limit h < 2/ω_max = {:.4e} s",
                 st.omega_max,
                 st.stability_limit()
+            );
+            let massless = st.with_boundary(Boundary::Massless);
+            let _ = writeln!(
+                s,
+                "  massless boundary: highest retained frequency {:.4e} rad/s, explicit stability limit {:.4e} s",
+                massless.omega_max,
+                massless.stability_limit()
             );
         }
     }

@@ -3,8 +3,8 @@
 
 use rubscan::dynamics::structure::Structure;
 use rubscan::dynamics::{
-    Case, CasingModel, InitialVelocity, KernelChoice, LobeLoad, Numerics, SimulationOutput,
-    simulate,
+    Boundary, Case, CasingModel, InitialVelocity, KernelChoice, LobeLoad, Numerics,
+    SimulationOutput, simulate,
 };
 use rubscan::fixtures::{SyntheticSpec, synthetic_rom};
 use rubscan::model::rom::{Component, CyclicRom};
@@ -51,6 +51,7 @@ fn base() -> Numerics {
         newton_tolerance: 1e-10,
         kernel: KernelChoice::Fast,
         decimation: 1,
+        boundary: Boundary::Mass,
     }
 }
 
@@ -135,4 +136,33 @@ fn decimation_sets_the_number_of_samples() {
     // The kept samples are the same instants with the same values.
     assert_eq!(fifth.time[0], every.time[4]);
     assert_eq!(fifth.blade_le_radial[0][0], every.blade_le_radial[0][4]);
+}
+
+/// The massless boundary changes the run; its two kernels agree to round-off with contact and
+/// friction, at a step beyond the paper formulation's limit.
+#[test]
+fn boundary_model_changes_the_run_and_its_kernels_agree() {
+    let mass = run(base());
+    let massless = run(Numerics {
+        boundary: Boundary::Massless,
+        ..base()
+    });
+    assert!(
+        max_diff(&mass, &massless) > 0.0,
+        "the boundary model did not reach the run"
+    );
+    let (_, _, limit) = models();
+    let wide = Numerics {
+        time_step: 1.2 * limit,
+        boundary: Boundary::Massless,
+        ..base()
+    };
+    let fast = run(wide.clone());
+    assert!(fast.summary.contact_steps > 0);
+    let dense = run(Numerics {
+        kernel: KernelChoice::DenseReference,
+        ..wide
+    });
+    let d = max_diff(&fast, &dense);
+    assert!(d < 1e-6 * level(&fast), "{d} against {}", level(&fast));
 }

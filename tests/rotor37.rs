@@ -692,20 +692,68 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
 #[test]
 fn rotor37_benchmark_runs_and_reports_its_figures() {
     let Some(imp) = imported() else { return };
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let work = std::env::temp_dir().join(format!("rubscan-rotor37-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&work);
     std::fs::create_dir_all(&work).unwrap();
     let _guard = Scratch(work.clone());
     let rom_path = work.join("blade_benchmark.rom");
     rom_file::save(&imp.rom, &rom_path).expect("ROM written");
+    // The paper's formulation as the README runs it, then the massless boundary at 1000
+    // steps per revolution (NLstep's resolution), against it.
+    let mass = run_benchmark(&rom_path, &work.join("mass"), None);
+    let h = 2.0 * std::f64::consts::PI / (1344.0 * 1000.0);
+    let massless = run_benchmark(&rom_path, &work.join("massless"), Some(h));
+    for f in [&mass, &massless] {
+        assert!(
+            f.closed > 0.0 && f.closed < 1.0,
+            "closed-contact fraction {}",
+            f.closed
+        );
+        assert!(
+            (f.gap_order - 2.0).abs() < 0.05,
+            "gap of node 188 at engine order {}",
+            f.gap_order
+        );
+        assert!(f.level > 0.0);
+        assert!(
+            f.residual <= 1e-8 * f.level,
+            "residual penetration {:e} m > 1e-8 × {:e} m",
+            f.residual,
+            f.level
+        );
+    }
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    assert!(rel(massless.peak_to_peak, mass.peak_to_peak) <= 0.05);
+    assert!(rel(massless.level, mass.level) <= 0.05);
+    assert!((massless.y_order - mass.y_order).abs() < 0.05);
+}
+
+/// What the benchmark test compares of one run.
+struct BenchmarkFigures {
+    peak_to_peak: f64,
+    level: f64,
+    y_order: f64,
+    gap_order: f64,
+    closed: f64,
+    residual: f64,
+}
+
+/// Runs `sweeps/rotor37_benchmark.json` on the ROM at `rom_path` into `out`, with a massless
+/// boundary at step `massless_h` (s) when given; prints and returns its figures.
+fn run_benchmark(rom_path: &Path, out: &Path, massless_h: Option<f64>) -> BenchmarkFigures {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(root.join("sweeps/rotor37_benchmark.json")).unwrap();
     let mut spec: serde_json::Value = serde_json::from_str(&text).unwrap();
     spec["models"]["impeller"]["rom"] = serde_json::json!(rom_path);
-    let spec_path = work.join("benchmark.json");
+    if let Some(h) = massless_h {
+        spec["numerics"] =
+            serde_json::json!({"time_step_s": h, "decimation": 1, "boundary": "massless"});
+    }
+    std::fs::create_dir_all(out).unwrap();
+    let spec_path = out.join("benchmark.json");
     std::fs::write(&spec_path, serde_json::to_string(&spec).unwrap()).unwrap();
     let t = Instant::now();
-    let dir = rubscan::app::simulate(&spec_path, 0, Some(&work.join("out"))).expect("benchmark");
+    let dir = rubscan::app::simulate(&spec_path, 0, Some(&out.join("out"))).expect("benchmark");
     let wall = t.elapsed();
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
@@ -723,37 +771,35 @@ fn rotor37_benchmark_runs_and_reports_its_figures() {
         probe("contact188_gap_m"),
         probe("contact188_normal_force_n"),
     );
-    let closed = summary["closed_contact_fraction"].as_f64().unwrap();
-    let residual = summary["max_residual_penetration_m"].as_f64().unwrap();
+    let figures = BenchmarkFigures {
+        peak_to_peak: y["steady"]["peak_to_peak"].as_f64().unwrap(),
+        level: y["max"].as_f64().unwrap().max(-y["min"].as_f64().unwrap()),
+        y_order: y["steady"]["dominant_engine_order"].as_f64().unwrap(),
+        gap_order: gap["steady"]["dominant_engine_order"].as_f64().unwrap(),
+        closed: summary["closed_contact_fraction"].as_f64().unwrap(),
+        residual: summary["max_residual_penetration_m"].as_f64().unwrap(),
+    };
     eprintln!(
-        "Rotor 37 benchmark ({} steps, {:.0} steps/rev, loop {:.2} s single thread, wall {wall:.1?}):\n  \
+        "Rotor 37 benchmark, {} boundary ({} steps, {:.0} steps/rev, loop {:.2} s single thread, wall {wall:.1?}):\n  \
          node 1353 y: peak-to-peak over the last 5 revolutions {:.4e} m, mean over the last 20 \
          {:.4e} m, dominant {:.2} Hz = engine order {:.3}\n  node 188: max normal force {:.4e} N, \
-         min gap {:.4e} m\n  steps with a closed contact: {:.4}; largest residual penetration {residual:.3e} m",
+         min gap {:.4e} m\n  steps with a closed contact: {:.4}; largest residual penetration {:.3e} m",
+        if massless_h.is_some() {
+            "massless"
+        } else {
+            "mass"
+        },
         summary["n_steps"],
         summary["steps_per_revolution"].as_f64().unwrap(),
         summary["loop_seconds"].as_f64().unwrap(),
-        y["steady"]["peak_to_peak"].as_f64().unwrap(),
+        figures.peak_to_peak,
         y["steady"]["mean"].as_f64().unwrap(),
         y["steady"]["dominant_frequency_hz"].as_f64().unwrap(),
-        y["steady"]["dominant_engine_order"].as_f64().unwrap(),
+        figures.y_order,
         force["max"].as_f64().unwrap(),
         gap["min"].as_f64().unwrap(),
-        closed
+        figures.closed,
+        figures.residual,
     );
-    assert!(
-        closed > 0.0 && closed < 1.0,
-        "closed-contact fraction {closed}"
-    );
-    let eo = gap["steady"]["dominant_engine_order"].as_f64().unwrap();
-    assert!(
-        (eo - 2.0).abs() < 0.05,
-        "gap of node 188 at engine order {eo}"
-    );
-    let level = y["max"].as_f64().unwrap().max(-y["min"].as_f64().unwrap());
-    assert!(level > 0.0);
-    assert!(
-        residual <= 1e-8 * level,
-        "residual penetration {residual:e} m > 1e-8 × {level:e} m"
-    );
+    figures
 }

@@ -25,12 +25,45 @@ pub(crate) struct DenseKernel {
     /// Physical → harmonic map and per-ND stiffness (for the strain energy per ND).
     p: DMatrix<f64>,
     k_nd: Vec<(usize, DMatrix<f64>)>,
+    /// With a massless boundary: the static modes, whose energy is counted apart.
+    statics: Option<StaticModes>,
     u_prev: Mat<f64>,
     u: Mat<f64>,
     u_next: Mat<f64>,
     rhs: Mat<f64>,
     fload: Mat<f64>,
     ub: Vec<f64>,
+}
+
+/// The static modes of a massless-boundary structure (see [`Structure::discretized`]): the
+/// `M'`-orthogonal projector on them, per nodal diameter, in harmonic coordinates.
+struct StaticModes {
+    /// Per block: offset and `Φ_s Φ_sᵀ M'` (dim × dim).
+    projectors: Vec<(usize, DMatrix<f64>)>,
+}
+
+impl StaticModes {
+    fn new(st: &Structure) -> Self {
+        let projectors = (st.blocks.iter())
+            .map(|b| {
+                let phi = b.modes.columns(b.first_static(), b.dim - b.first_static());
+                (b.offset, &phi * (phi.transpose() * &b.mass))
+            })
+            .collect();
+        Self { projectors }
+    }
+
+    /// The static part `Pᵀ ⊕_k (Φ_s Φ_sᵀ M')_k P u` of a physical state `u`.
+    fn project(&self, p: &DMatrix<f64>, u: &Mat<f64>) -> Mat<f64> {
+        let x = p * nalgebra::DVector::from_fn(u.nrows(), |i, _| u[(i, 0)]);
+        let mut xs = nalgebra::DVector::zeros(x.len());
+        for (off, proj) in &self.projectors {
+            let n = proj.nrows();
+            xs.rows_mut(*off, n).copy_from(&(proj * x.rows(*off, n)));
+        }
+        let us = p.transpose() * xs;
+        Mat::from_fn(us.len(), 1, |i, _| us[i])
+    }
 }
 
 fn to_faer(m: &DMatrix<f64>) -> Mat<f64> {
@@ -40,6 +73,7 @@ fn to_faer(m: &DMatrix<f64>) -> Mat<f64> {
 impl DenseKernel {
     /// Assembles the physical ROM of `st` and inverts `A` for time step `h` (s).
     pub fn new(st: &Structure, h: f64) -> Self {
+        let st = &*st.discretized(h);
         let (m, k, d) = st.assemble_physical();
         let n = m.nrows();
         let a = to_faer(&(&m / (h * h) + &d / (2.0 * h)));
@@ -51,6 +85,7 @@ impl DenseKernel {
             .iter()
             .map(|b| (b.offset, b.stiffness.clone()))
             .collect();
+        let statics = st.has_static_modes().then(|| StaticModes::new(st));
         Self {
             ns: st.n_sectors,
             nb: st.n_boundary,
@@ -62,6 +97,7 @@ impl DenseKernel {
             k: to_faer(&k),
             p: st.physical_to_harmonic(),
             k_nd,
+            statics,
             u_prev: Mat::zeros(n, 1),
             u: Mat::zeros(n, 1),
             u_next: Mat::zeros(n, 1),
@@ -178,13 +214,22 @@ impl StructureKernel for DenseKernel {
         std::mem::swap(&mut self.u, &mut self.u_next);
     }
     fn energies(&self) -> Energies {
-        let mut v = self.u.clone();
+        let (mut u, mut u_prev) = (self.u.clone(), self.u_prev.clone());
+        let mut statics = Energies::default();
+        if let Some(s) = &self.statics {
+            // Static parts out of both states: no kinetic energy, strain `½ u_sᵀ K u_s` at n.
+            let us = s.project(&self.p, &self.u);
+            statics.strain = 0.5 * Self::quad(&self.k, &us, &us);
+            u -= &us;
+            u_prev -= s.project(&self.p, &self.u_prev);
+        }
+        let mut v = u.clone();
         for i in 0..v.nrows() {
-            v[(i, 0)] = (self.u[(i, 0)] - self.u_prev[(i, 0)]) / self.h;
+            v[(i, 0)] = (u[(i, 0)] - u_prev[(i, 0)]) / self.h;
         }
         Energies {
             kinetic: 0.5 * Self::quad(&self.m, &v, &v),
-            strain: 0.5 * Self::quad(&self.k, &self.u, &self.u_prev),
+            strain: 0.5 * Self::quad(&self.k, &u, &u_prev) + statics.strain,
         }
     }
     fn nd_strain_energy(&self, out: &mut [f64]) {

@@ -1,20 +1,28 @@
 //! The two kernels checked against each other: the fast modal kernel and the dense reference
 //! advance the same structure through the same loads to the same states (free flight, loads,
-//! corrections, energies). Beside both, since it needs both.
+//! corrections, energies), in the paper's formulation and with a massless boundary. Beside
+//! both, since it needs both.
 
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
+use crate::dynamics::numerics::Boundary;
 use crate::dynamics::structure::Structure;
 use crate::fixtures::{SyntheticSpec, synthetic_rom};
 use crate::model::rom::{Component, Damping};
 
 fn check_free_flight(spec: SyntheticSpec, omega: f64) {
     let rom = synthetic_rom(&spec);
-    let st = Structure::new(&rom, omega).unwrap();
+    for boundary in [Boundary::Mass, Boundary::Massless] {
+        let st = Structure::new(&rom, omega).unwrap().with_boundary(boundary);
+        check_structure(&st);
+    }
+}
+
+fn check_structure(st: &Structure) {
     let h = 0.3 * st.stability_limit();
-    let mut fast = ModalKernel::new(&st, h).unwrap();
-    let mut dense = DenseKernel::new(&st, h);
+    let mut fast = ModalKernel::new(st, h).unwrap();
+    let mut dense = DenseKernel::new(st, h);
     let n = st.n_modal;
     let v0: Vec<f64> = (0..n).map(|i| ((i * 7 % 13) as f64 - 6.0) * 0.01).collect();
     let pat: Vec<f64> = (0..st.n_sectors * st.n_boundary)
@@ -45,13 +53,20 @@ fn check_free_flight(spec: SyntheticSpec, omega: f64) {
         dense.advance();
     }
     assert!(scale > 0.0);
+    // The dense kernel inverts A = M/h² + D/2h; a massless boundary's static modes enter it at
+    // ω_s² (mass ω²h²/2 over h², damping ω²h over 2h) beside the dynamic modes' 1/h², which
+    // adds a factor (ω_s,max h)² ≈ 10²–10³ to its condition number, and to its round-off.
+    let rel = if st.has_static_modes() { 1e-11 } else { 1e-12 };
     assert!(
-        worst <= 1e-12 * scale,
+        worst <= rel * scale,
         "fast vs dense: {worst:e} vs scale {scale:e}"
     );
     let (ef, ed) = (fast.energies(), dense.energies());
-    assert!((ef.kinetic - ed.kinetic).abs() <= 1e-10 * ed.kinetic);
-    assert!((ef.strain - ed.strain).abs() <= 1e-10 * ed.strain.abs());
+    // Round-off of quadratic forms scales with the energy of the state, not with one part
+    // (with a massless boundary the last case keeps 6e-4 of its energy as kinetic).
+    let energy = ed.kinetic + ed.strain.abs();
+    assert!((ef.kinetic - ed.kinetic).abs() <= 1e-10 * energy);
+    assert!((ef.strain - ed.strain).abs() <= 1e-10 * energy);
     let kmax = st.blocks.len();
     let (mut a, mut b) = (vec![0.0; kmax], vec![0.0; kmax]);
     fast.nd_strain_energy(&mut a);

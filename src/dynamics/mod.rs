@@ -26,7 +26,7 @@ pub mod scenario;
 pub mod simulate;
 pub mod structure;
 
-pub use numerics::{KernelChoice, Numerics};
+pub use numerics::{Boundary, KernelChoice, Numerics};
 pub use probes::{RunSummary, SimulationOutput};
 pub use scenario::{
     Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad, RigidShape, RigidSurface,

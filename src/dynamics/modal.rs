@@ -83,6 +83,9 @@ pub struct ModalKernel {
     h: f64,
     blocks: Vec<Block>,
     omega2: Vec<f64>,
+    /// Per mode 1 (dynamic) or 0 (static, massless boundary): a static mode has no kinetic
+    /// energy and its strain energy is that of `η_n` alone.
+    inertial: Vec<f64>,
     c1: Vec<f64>,
     c2: Vec<f64>,
     /// `h²/2` (s²): `c₃ = 1/a` of each mode is [`c3_of`] its `c₂` (not stored: a third
@@ -156,6 +159,7 @@ impl ModalKernel {
     /// only if the eigenvectors of a complex harmonic cannot be paired (see `paired_modes`).
     /// Its SIMD path is [`Isa::selected`] at this call.
     pub fn new(st: &Structure, h: f64) -> Result<Self, StructureError> {
+        let st = &*st.discretized(h);
         let ns = st.n_sectors;
         let nb = st.n_boundary;
         let mut planner = RealFftPlanner::<f64>::new();
@@ -163,7 +167,7 @@ impl ModalKernel {
         let c2r = planner.plan_fft_inverse(ns);
         let nspec = ns / 2 + 1;
         let mut blocks = Vec::new();
-        let (mut omega2, mut c1, mut c2) = (vec![], vec![], vec![]);
+        let (mut omega2, mut c1, mut c2, mut inertial) = (vec![], vec![], vec![], vec![]);
         let half_h2 = 0.5 * h * h;
         let mut phys_modal = vec![];
         let mut n_modes = vec![];
@@ -205,6 +209,7 @@ impl ModalKernel {
                 omega2.push(w * w);
                 c1.push((2.0 / (h * h) - w * w) / a);
                 c2.push(-(1.0 / (h * h) - c / (2.0 * h)) / a);
+                inertial.push(if p % n < n - b.n_static { 1.0 } else { 0.0 });
             }
             blocks.push(Block {
                 offset: b.offset,
@@ -233,6 +238,7 @@ impl ModalKernel {
             omega2,
             c1,
             c2,
+            inertial,
             half_h2,
             eta_prev: vec![0.0; n],
             eta: vec![0.0; n],
@@ -839,7 +845,10 @@ fn paired_modes(b: &NdBlock) -> Result<PairedBasis, EigenError> {
         }
         w
     };
-    let lmax = b.omega.iter().fold(0.0f64, |m, w| m.max(w * w)).max(1.0);
+    // The scale of the dynamic modes' eigenvalues (static modes, all at 2/h², come last).
+    let lmax = (b.omega[..b.first_static()].iter())
+        .fold(0.0f64, |m, w| m.max(w * w))
+        .max(1.0);
     let tol = 1e-9 * lmax;
     let mut chosen: Vec<DVector<f64>> = Vec::with_capacity(n);
     let mut start = 0;
@@ -847,7 +856,8 @@ fn paired_modes(b: &NdBlock) -> Result<PairedBasis, EigenError> {
         // A cluster of (numerically) equal eigenvalues, of even size.
         let mut end = start + 1;
         while end < dim
-            && ((end - start) % 2 == 1 || b.omega[end].powi(2) - b.omega[end - 1].powi(2) <= tol)
+            && ((end - start) % 2 == 1
+                || (b.omega[end].powi(2) - b.omega[end - 1].powi(2)).abs() <= tol)
         {
             end += 1;
         }
@@ -1002,21 +1012,25 @@ impl StructureKernel for ModalKernel {
     fn energies(&self) -> Energies {
         // Four lanes of partial sums in a fixed order, deterministic: whole chunks of four as
         // arrays (so the loop is vectorised), then the tail into the first lanes.
+        // A static mode (weight 0) adds no kinetic energy and `ω² η_n²`; the products by the
+        // weights 1 and 0 are exact, so a structure without static modes keeps its bits.
         let (mut kinetic, mut strain) = ([0.0f64; 4], [0.0f64; 4]);
-        let mut add = |eta: &[f64], prev: &[f64], omega2: &[f64]| {
+        let mut add = |eta: &[f64], prev: &[f64], omega2: &[f64], weight: &[f64]| {
             for j in 0..eta.len() {
                 let d = eta[j] - prev[j];
-                kinetic[j] += d * d;
-                strain[j] += omega2[j] * eta[j] * prev[j];
+                kinetic[j] += weight[j] * (d * d);
+                let lagged = weight[j] * prev[j] + (1.0 - weight[j]) * eta[j];
+                strain[j] += omega2[j] * eta[j] * lagged;
             }
         };
         let (eta, eta_tail) = self.eta.as_chunks::<4>();
         let (prev, prev_tail) = self.eta_prev.as_chunks::<4>();
         let (omega2, omega2_tail) = self.omega2.as_chunks::<4>();
-        for ((e, p), w) in eta.iter().zip(prev).zip(omega2) {
-            add(e, p, w);
+        let (weight, weight_tail) = self.inertial.as_chunks::<4>();
+        for (((e, p), w), m) in eta.iter().zip(prev).zip(omega2).zip(weight) {
+            add(e, p, w, m);
         }
-        add(eta_tail, prev_tail, omega2_tail);
+        add(eta_tail, prev_tail, omega2_tail, weight_tail);
         let sum = |x: [f64; 4]| (x[0] + x[1]) + (x[2] + x[3]);
         Energies {
             kinetic: 0.5 * sum(kinetic) / (self.h * self.h),

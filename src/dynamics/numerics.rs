@@ -31,6 +31,21 @@ pub enum KernelChoice {
     DenseReference,
 }
 
+/// How the contact boundary of the Craig–Bampton ROMs carries inertia.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Boundary {
+    /// The paper's formulation: the boundary DOFs carry mass; the stability limit is set by
+    /// the boundary-dominated modes of the ROM.
+    #[default]
+    Mass,
+    /// Massless boundary (Monjaraz-Tec, Gross & Krack 2022): per nodal diameter the `n_m`
+    /// lowest modes stay dynamic and the boundary follows statically through the residual
+    /// flexibility, so the stability limit is set by the retained modes only (see
+    /// [`crate::dynamics::structure`], "Massless boundary").
+    Massless,
+}
+
 /// Numerical parameters of the explicit contact simulation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -49,6 +64,8 @@ pub struct Numerics {
     /// Integral floats (`10.0`) are accepted, like JSON Schema's `integer`.
     #[serde(deserialize_with = "de_count")]
     pub decimation: usize,
+    /// Inertia of the contact boundary (default `mass`, the paper's formulation).
+    pub boundary: Boundary,
 }
 
 impl Default for Numerics {
@@ -58,6 +75,7 @@ impl Default for Numerics {
             newton_tolerance: 1e-5,
             kernel: KernelChoice::Fast,
             decimation: 10,
+            boundary: Boundary::Mass,
         }
     }
 }

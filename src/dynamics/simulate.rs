@@ -17,7 +17,7 @@ use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
-use crate::dynamics::numerics::KernelChoice;
+use crate::dynamics::numerics::{Boundary, KernelChoice};
 use crate::dynamics::probes::{
     CoatingOutput, Probe, ProbeQuantity, ProbeTarget, RecoveryEval, RunSummary, SimulationOutput,
     Stage, StageClock, resolve_probes,
@@ -215,9 +215,16 @@ struct Blades {
     te: usize,
     /// `R(θ_s)` per blade.
     rot: Vec<Matrix3<f64>>,
-    /// Tip nodes Γ (m, fixed frame) of this step and of the previous one.
+    /// Tip nodes Γ (m, fixed frame) of this step and of the previous one (the slip
+    /// increments of eq. 15 are measured from it).
     nodes: Vec<Vector3<f64>>,
     nodes_prev: Vec<Vector3<f64>>,
+    /// With a massless boundary, the predicted tip nodes of this step, which become
+    /// `nodes_prev`: the boundary's static response to the contact forces is found again
+    /// every step, so its appearance in the corrected nodes is not a motion of the
+    /// material, and slip measured from them would follow the last friction force instead
+    /// of the sliding. Empty with the paper's formulation.
+    nodes_predicted: Vec<Vector3<f64>>,
 }
 
 impl Blades {
@@ -274,6 +281,10 @@ impl Blades {
             rot,
             nodes: vec![Vector3::zeros(); nn],
             nodes_prev,
+            nodes_predicted: match case.numerics.boundary {
+                Boundary::Mass => Vec::new(),
+                Boundary::Massless => vec![Vector3::zeros(); nn],
+            },
         })
     }
 
@@ -700,9 +711,10 @@ impl<'a> Simulation<'a> {
         impeller: &CyclicRom,
         casing: &CasingModel,
     ) -> Result<Self, SimError> {
-        let st_i = Structure::new(impeller, case.omega)?;
+        let boundary = case.numerics.boundary;
+        let st_i = Structure::new(impeller, case.omega)?.with_boundary(boundary);
         let st_c = match casing {
-            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?),
+            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?.with_boundary(boundary)),
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
         let (limit, steps_per_revolution) = check_stability(case, &st_i, st_c.as_ref())?;
@@ -903,6 +915,11 @@ impl<'a> Simulation<'a> {
     /// nodes that may be closer than the projector's margin; or their imposed gaps.
     fn project(&mut self) -> Result<(), SimError> {
         self.blades.place(&self.r_om);
+        if !self.blades.nodes_predicted.is_empty() {
+            self.blades
+                .nodes_predicted
+                .copy_from_slice(&self.blades.nodes);
+        }
         let p = &mut self.projector;
         let cs = match &self.casing {
             Casing::Surface(cs) => cs,
@@ -1281,7 +1298,11 @@ impl<'a> Simulation<'a> {
     /// increments, commits the coating, and checks the state is finite.
     fn advance(&mut self) -> Result<(), SimError> {
         let b = &mut self.blades;
-        b.nodes_prev.copy_from_slice(&b.nodes);
+        if b.nodes_predicted.is_empty() {
+            b.nodes_prev.copy_from_slice(&b.nodes);
+        } else {
+            std::mem::swap(&mut b.nodes_prev, &mut b.nodes_predicted);
+        }
         if let Some(cs) = self.casing.surface_mut()
             && cs.flexible.is_some()
         {
@@ -2288,6 +2309,7 @@ mod tests {
                 newton_tolerance: eps,
                 kernel,
                 decimation: 5,
+                boundary: Default::default(),
             },
             coating: None,
         }
@@ -2454,6 +2476,123 @@ mod tests {
         let e_end = out.impeller_energy.kinetic.last().unwrap()
             + out.impeller_energy.strain.last().unwrap();
         assert!((e_end - 0.5 * k * g0 * g0).abs() < 1e-2 * 0.5 * k * g0 * g0);
+    }
+
+    /// A massless contact node tied by a spring `k_c` to a mass `m` on a spring `k₀` (each
+    /// direction), as a two-node ROM whose boundary node carries `m_b = 10⁻⁸ m`: boundary
+    /// first, the mass as its "modal" part.
+    fn spring_mass_rom(m: f64, k0: f64, kc: f64, r0: f64) -> CyclicRom {
+        let mb = 1e-8 * m;
+        let mut rom = oscillator_rom(m, k0, r0);
+        let (mut mass, mut stiffness) = (DMatrix::zeros(6, 6), DMatrix::zeros(6, 6));
+        for d in 0..3 {
+            mass[(d, d)] = mb;
+            mass[(3 + d, 3 + d)] = m;
+            stiffness[(d, d)] = kc;
+            stiffness[(3 + d, 3 + d)] = kc + k0;
+            stiffness[(d, 3 + d)] = -kc;
+            stiffness[(3 + d, d)] = -kc;
+        }
+        let h = &mut rom.harmonics[0];
+        h.n_modes = 3;
+        h.mass = HermitianMatrix::real(mass);
+        h.stiffness[0] = HermitianMatrix::real(stiffness);
+        for k in &mut h.stiffness[1..] {
+            *k = HermitianMatrix::real(DMatrix::zeros(6, 6));
+        }
+        rom
+    }
+
+    /// [`spring_mass_rom`] thrown outward at `v₀` against a rigid cylinder `g₀` away, with a
+    /// massless boundary, at a step 20 times its mass formulation's limit. Exact motion: free
+    /// flight at `ω₀ = √(k₀/m)` (the unloaded spring carries the node with the mass) until the
+    /// node reaches `g₀`; contact, the node held at `g₀` and the mass at `ω₁ = √((k₀ + k_c)/m)`
+    /// about `x_e = k_c g₀/(k₀ + k_c)`, while `k_c (x − g₀) ≥ 0`; free flight again. Without
+    /// damping or friction the energy (the mass's, and the spring's at the held node) never
+    /// grows.
+    #[test]
+    fn massless_boundary_oscillator_against_a_rigid_wall_matches_the_analytic_solution() {
+        let (m, k0, kc, r0, g0) = (0.1, 4e6, 1.2e7, 0.2, 1e-4);
+        let rom = spring_mass_rom(m, k0, kc, r0);
+        let casing = CasingModel::Rigid(RigidSurface {
+            n_sectors: 64,
+            meridian: vec![[r0 + g0, -0.01], [r0 + g0, 0.01]],
+            shape: RigidShape::Lobes {
+                lobes: 0,
+                amplitude: 0.0,
+            },
+        });
+        let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
+        let v0 = 2.0 * g0 * w0;
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let massless = st.clone().with_boundary(Boundary::Massless);
+        let h = 0.02 / w1;
+        assert!(h > 20.0 * st.stability_limit() && h < 0.01 * massless.stability_limit());
+        let case = Case {
+            omega: 0.0,
+            duration: 2.0 * 2.0 * PI / w0,
+            friction: 0.0,
+            load: None,
+            clearance_offset: vec![],
+            casing_probes: vec![],
+            probes: vec![],
+            initial_velocity: InitialVelocity {
+                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: h,
+                decimation: 1,
+                newton_tolerance: 1e-12,
+                boundary: Boundary::Massless,
+                ..Default::default()
+            },
+            coating: None,
+        };
+        let out = simulate(&case, &rom, &casing, None).unwrap();
+        // Phase times: reach the wall at t₁, leave it 2 atan2(b, a)/ω₁ later; then free flight
+        // from phase π − ω₀t₁ to 2π (back at 0 with +v₀): the period.
+        let t1 = (g0 * w0 / v0).asin() / w0;
+        let v1 = v0 * (w0 * t1).cos();
+        let xe = kc * g0 / (k0 + kc);
+        let (a, b) = (g0 - xe, v1 / w1);
+        let t2 = t1 + 2.0 * b.atan2(a) / w1;
+        let period = t2 + (PI + w0 * t1) / w0;
+        let exact = |t: f64| {
+            let t = t % period;
+            if t < t1 {
+                v0 / w0 * (w0 * t).sin()
+            } else if t < t2 {
+                g0
+            } else {
+                v0 / w0 * (PI - w0 * t1 + w0 * (t - t2)).sin()
+            }
+        };
+        // Timing errors of a step at the switches: a few ω₁ h g₀ (ω₁ h = 0.02).
+        let tol = 5.0 * w1 * h * g0;
+        let mut worst = 0.0f64;
+        for (t, u) in out.time.iter().zip(&out.blade_le_radial[0]) {
+            worst = worst.max((u - exact(*t)).abs());
+            assert!(*u <= g0 * (1.0 + 1e-9), "penetration at t = {t}: u = {u}");
+        }
+        assert!(worst <= tol, "max error {worst:e} > {tol:e}");
+        assert!(out.summary.contact_steps > 10);
+        assert!(out.summary.max_residual_penetration <= 1e-12 * g0);
+        let e = &out.impeller_energy;
+        let total: Vec<f64> = e
+            .kinetic
+            .iter()
+            .zip(&e.strain)
+            .map(|(k, s)| k + s)
+            .collect();
+        for w in total.windows(2) {
+            assert!(
+                w[1] <= w[0] * (1.0 + 1e-12),
+                "energy grew: {} -> {}",
+                w[0],
+                w[1]
+            );
+        }
     }
 
     /// A one-node blade (mass m, stiffness k in every direction) at rest, sweeping past one

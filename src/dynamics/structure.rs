@@ -23,10 +23,29 @@
 //! polynomial `(1 + c h/2) z² − (2 − ω² h²) z + (1 − c h/2)` per mode; its roots lie in the
 //! unit disc iff `ω h < 2`, whatever `c ≥ 0`. Hence `h_crit = 2/ω_max` exactly, with or without
 //! damping; `h ≥ h_crit` is refused.
+//!
+//! # Massless boundary
+//! [`Structure::with_boundary`]`(`[`Boundary::Massless`]`)` applies MacNeal's residual-flexibility
+//! idea to the Craig–Bampton ROM itself (Monjaraz-Tec, Gross & Krack 2022, arXiv 2111.07693):
+//! per nodal diameter and per part the `n_m` lowest eigenmodes of `(K(Ω), M)` stay dynamic and
+//! the `3 n_c` highest — the boundary-dominated ones that set the stability limit — become
+//! quasi-static, `η_p = φ_pᵀ f / ω_p²`. The boundary then carries no inertia: its
+//! displacement is `u_b = Φ_b,d η_d + R f` with the residual flexibility
+//! `R = Σ_static φ_b φ_bᵀ/ω² = [K⁻¹ − Φ_d Λ_d⁻¹ Φ_dᵀ]_bb`, exact in statics, and the
+//! stability limit is `2/ω_max` of the dynamic modes only.
+//!
+//! Central differences reach that formulation without a second code path
+//! ([`Structure::discretized`]): a static mode scaled by `α = √2/(ω h)` with frequency
+//! `ω̃ = √2/h` and damping `c̃ = 2/h` has `c₁ = c₂ = 0` in the three-term recurrence, so
+//! `η_{n+1} = φ_pᵀ f/ω_p²` every step with no memory, and `A⁻¹` holds `R` exactly. In physical
+//! terms the static modes' mass becomes `ω²h²/2` of theirs and their damping `ω² h`; the
+//! stiffness is unchanged. Both kernels take that structure as it is.
 
+use crate::dynamics::numerics::Boundary;
 use crate::model::eigen::{EigenError, symmetric_gen_eigen};
 use crate::model::rom::{CyclicRom, Damping, RomError};
 use nalgebra::DMatrix;
+use std::borrow::Cow;
 use thiserror::Error;
 
 /// Errors when freezing a ROM at a rotation speed.
@@ -93,12 +112,28 @@ pub struct NdBlock {
 
     /// Mass-normalized eigenvectors (columns, `Φᵀ M Φ = I`), sorted by ascending frequency.
     pub modes: DMatrix<f64>,
-    /// Natural circular frequencies ω_p (rad/s), ascending.
+    /// Natural circular frequencies ω_p (rad/s), ascending (in [`Structure::discretized`]
+    /// the static modes come last with `ω̃ = √2/h`).
     pub omega: Vec<f64>,
     /// Modal damping coefficients `c_p` (1/s): the mode obeys `η̈ + c_p η̇ + ω_p² η = φ_pᵀ f`.
     pub damping_coef: Vec<f64>,
     /// Offset of this block in the flat modal-coordinate vector of the structure.
     pub offset: usize,
+    /// Quasi-static modes per part (the highest ones; see "Massless boundary" in the module
+    /// doc): 0 in the paper's formulation, `3 n_c` with a massless boundary.
+    pub n_static: usize,
+}
+
+impl NdBlock {
+    /// Number of parts of the real form: 1 (real harmonic) or 2.
+    fn parts(&self) -> usize {
+        if self.real { 1 } else { 2 }
+    }
+
+    /// Real-form index of the first static mode (the dynamic modes come first).
+    pub fn first_static(&self) -> usize {
+        self.dim - self.parts() * self.n_static
+    }
 }
 
 /// A cyclic ROM at one rotation speed, ready for time integration.
@@ -188,6 +223,7 @@ impl Structure {
                 omega: om,
                 damping_coef,
                 offset,
+                n_static: 0,
             });
             offset += dim;
         }
@@ -200,6 +236,51 @@ impl Structure {
             n_modal: offset,
             omega_max,
         })
+    }
+
+    /// The structure with the boundary model `boundary`: unchanged for [`Boundary::Mass`]; for
+    /// [`Boundary::Massless`] the `3 n_c` highest modes per part of each nodal diameter become
+    /// static and `ω_max` (hence the stability limit) is that of the dynamic modes.
+    pub fn with_boundary(mut self, boundary: Boundary) -> Self {
+        if boundary == Boundary::Massless {
+            for b in &mut self.blocks {
+                b.n_static = b.n - b.n_modes;
+            }
+            self.omega_max = (self.blocks.iter())
+                .flat_map(|b| b.omega[..b.first_static()].iter().copied())
+                .fold(0.0, f64::max);
+        }
+        self
+    }
+
+    /// Whether some modes are static (a massless boundary).
+    pub fn has_static_modes(&self) -> bool {
+        self.blocks.iter().any(|b| b.n_static > 0)
+    }
+
+    /// The structure central differences with step `h` (s) integrate: itself in the paper's
+    /// formulation; with a massless boundary, each static mode `p` scaled by
+    /// `α = √2/(ω_p h)` with `ω̃ = √2/h`, `c̃ = 2/h`, the mass and damping changed to match
+    /// (`M' = M − Σ_s (1 − ω²h²/2) M φ φᵀ M`, `D' = D + Σ_s (ω² h − c) M φ φᵀ M`), so that
+    /// the modes stay `M'`-orthonormal and diagonalise `K` and `D'` (module doc).
+    pub fn discretized(&self, h: f64) -> Cow<'_, Structure> {
+        if !self.has_static_modes() {
+            return Cow::Borrowed(self);
+        }
+        let mut st = self.clone();
+        for b in &mut st.blocks {
+            for p in b.first_static()..b.dim {
+                let (w, c) = (b.omega[p], b.damping_coef[p]);
+                let mphi = &b.mass * b.modes.column(p);
+                let outer = &mphi * mphi.transpose();
+                b.mass -= &outer * (1.0 - 0.5 * w * w * h * h);
+                b.damping += &outer * (w * w * h - c);
+                b.modes.column_mut(p).scale_mut(2f64.sqrt() / (w * h));
+                b.omega[p] = 2f64.sqrt() / h;
+                b.damping_coef[p] = 2.0 / h;
+            }
+        }
+        Cow::Owned(st)
     }
 
     /// Explicit stability limit `h_crit = 2/ω_max` (s); infinite for a structure without stiffness.

@@ -138,7 +138,7 @@ fn check_speeds_and_step(
 ) {
     let casing_structure = match casing {
         ResolvedCasing::Flexible(rom) => match Structure::new(rom, 0.0) {
-            Ok(s) => Some(s),
+            Ok(s) => Some(s.with_boundary(spec.numerics.boundary)),
             Err(e) => {
                 issues.push(issue("/models/casing", e.to_string()));
                 return;
@@ -167,7 +167,7 @@ fn check_speeds_and_step(
             continue;
         }
         let st = match Structure::new(impeller, omega) {
-            Ok(st) => st,
+            Ok(st) => st.with_boundary(spec.numerics.boundary),
             Err(e @ StructureError::Indefinite { .. }) => {
                 issues.push(issue(
                     speed_pointer(spec, i),
