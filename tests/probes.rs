@@ -129,6 +129,7 @@ fn run(kernel: KernelChoice) -> SimulationOutput {
             newton_tolerance: 1e-10,
             kernel,
             decimation: 1,
+            ..Default::default()
         },
         coating: None,
     };

@@ -47,7 +47,7 @@ impl StaticModes {
         let projectors = (st.blocks.iter())
             .map(|b| {
                 let phi = b.modes.columns(b.first_static(), b.dim - b.first_static());
-                (b.offset, &phi * (phi.transpose() * &b.mass))
+                (b.offset, phi * (phi.transpose() * &b.mass))
             })
             .collect();
         Self { projectors }
