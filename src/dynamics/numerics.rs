@@ -46,6 +46,13 @@ pub enum Boundary {
     Massless,
 }
 
+impl Boundary {
+    /// Whether this is the paper's formulation (the default).
+    pub fn is_mass(&self) -> bool {
+        *self == Boundary::Mass
+    }
+}
+
 /// Numerical parameters of the explicit contact simulation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -64,7 +71,10 @@ pub struct Numerics {
     /// Integral floats (`10.0`) are accepted, like JSON Schema's `integer`.
     #[serde(deserialize_with = "de_count")]
     pub decimation: usize,
-    /// Inertia of the contact boundary (default `mass`, the paper's formulation).
+    /// Inertia of the contact boundary (default `mass`, the paper's formulation). Not
+    /// written when it is the default, so that the job ids of existing sweeps (hashes of
+    /// their parameters) do not change and their results still resume.
+    #[serde(skip_serializing_if = "Boundary::is_mass")]
     pub boundary: Boundary,
 }
 
