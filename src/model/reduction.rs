@@ -38,6 +38,12 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 use thiserror::Error;
 
+/// Revision of the reduction's numerics, part of the key of the on-disk ROM cache
+/// ([`crate::io::model_cache`]): bump it with every change that alters the numbers of a built
+/// ROM, or a machine's cache keeps serving ROMs of the old code (the crate version does not
+/// change with such commits). 2: fixed-interface modes from [`crate::model::sparse_eigen`].
+pub const NUMERICS_REVISION: u32 = 2;
+
 /// Options of the cyclic Craig–Bampton reduction.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct ReductionOptions {
