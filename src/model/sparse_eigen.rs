@@ -13,8 +13,9 @@
 //! grows by blocks of `p = n + 14` vectors, fully reorthogonalized (no spurious copies), and
 //! the `n` largest Ritz values of `C` are the lowest `λ`. One block costs `p` forward and `p`
 //! backward triangular solves with `L` and one sparse product with `M`, all BLAS-3 on the
-//! block. Plain subspace iteration needs several times more solves, since it keeps only the
-//! newest block instead of the whole Krylov space (see the issue #22 report for measurements).
+//! block. Plain subspace iteration needs about twice as many solves, since it keeps only the
+//! newest block instead of the whole Krylov space: on the built-in impeller (1875 interior
+//! DOFs, 10 modes) 192 solves per harmonic against 320–520 for the former subspace iteration.
 //! `Q₀` is the caller's `start` block (e.g. `L⁻¹ P K_ib`, the static responses to boundary
 //! loads, which are dominated by low modes), completed by deterministic pseudo-random columns.
 //!
