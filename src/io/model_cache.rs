@@ -1,5 +1,6 @@
-//! On-disk cache of built ROMs, keyed by a hash of the component spec, the rubscan version and
-//! the ROM format version: a second `model build` (or sweep) of the same spec loads instantly.
+//! On-disk cache of built ROMs, keyed by a hash of the component spec, the rubscan version,
+//! the ROM format version and the reduction's numerics revision: a second `model build` (or
+//! sweep) of the same spec loads instantly.
 
 use std::path::PathBuf;
 
@@ -8,6 +9,7 @@ use anyhow::Result;
 use crate::io::content_hash::content_hash;
 use crate::io::rom_file;
 use crate::model::build::{BuildError, CasingSpec, ImpellerSpec, build_casing, build_impeller};
+use crate::model::reduction::NUMERICS_REVISION;
 use crate::model::rom::{CyclicRom, ROM_FORMAT_VERSION};
 
 /// Directory of the ROM cache: `$RUBSCAN_CACHE_DIR`, else `$XDG_CACHE_HOME/rubscan`, else
@@ -26,13 +28,14 @@ pub fn cache_dir() -> PathBuf {
 }
 
 /// Loads a ROM from the cache, or builds it with `build` and stores it. The key hashes the
-/// component spec, the rubscan version and the ROM format version, so any change rebuilds.
+/// component spec, the rubscan version, the ROM format version and the reduction's
+/// [`NUMERICS_REVISION`], so any change rebuilds.
 pub fn cached_rom<S: serde::Serialize>(
     kind: &str,
     spec: &S,
     build: impl FnOnce(&S) -> Result<CyclicRom, BuildError>,
 ) -> Result<(CyclicRom, bool)> {
-    let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION });
+    let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION, "numerics": NUMERICS_REVISION });
     let path = cache_dir().join(format!("{kind}-{}.rom", content_hash(&key)));
     // A missing or unreadable cache entry is rebuilt.
     if let Ok(rom) = rom_file::load(&path) {

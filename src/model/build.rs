@@ -140,7 +140,6 @@ fn reduce_built_in(
         component,
         name: format!("built-in {label}"),
         damping,
-        ..ReductionOptions::default()
     };
     let mut rom = reduce_cyclic(&mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
         component: label,

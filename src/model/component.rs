@@ -10,19 +10,12 @@
 //! interior `i`, the reduction basis is
 //! `T = [[I, 0], [Ψ, Φ]]`, `Ψ = −K_ii⁻¹ K_ib` (static constraint modes) and `Φ` the lowest
 //! `n_m` eigenvectors of `K_ii φ = λ M_ii φ` (fixed-interface modes, mass-normalized).
-//! `K_ii` is factored once, `P K_ii Pᵀ = L Lᵀ` (faer sparse supernodal Cholesky, AMD ordering
-//! `P`); the constraint modes are solves with that factor. Because the mass matrix is
-//! consistent (not diagonal), the fixed-interface modes come from the symmetric
-//! shift-invert operator `C = L⁻¹ (P M_ii Pᵀ) L⁻ᵀ` (half-solves with `L`, one sparse
-//! product with `M_ii`): its eigenvalues are `μ = 1/λ` and its eigenvectors `ψ = Lᵀ P φ`.
-//! A block Krylov–Rayleigh–Ritz iteration with full reorthogonalization (blocks of
-//! `n_m + 14` vectors, started from `L⁻¹ P K_ib` plus random columns) returns the largest
-//! `μ`, i.e. the lowest `λ`. faer's single-vector Krylov–Schur
-//! (`matrix_free::eigen::partial_self_adjoint_eigen`) gave the same modes but took ~3× longer
-//! on Rotor 37, since every application of `C` is two sparse triangular solves that are far
-//! cheaper per vector on blocks. Each vector is then mapped back, `φ = Pᵀ L⁻ᵀ ψ`, and
-//! normalized so that `φᵀ M φ = 1`; `λ` is its Rayleigh quotient.
-//! Small interiors (≤ 4 blocks) are solved densely.
+//! `K_ii` is factored once, `P K_ii Pᵀ = L Lᵀ` (sparse supernodal Cholesky,
+//! [`crate::model::sparse_eigen::CholeskyFactor`]); the constraint modes are solves with that
+//! factor, and the fixed-interface modes come from the sparse generalized eigensolver on the
+//! same factor ([`crate::model::sparse_eigen::lowest_eigenpairs`]: block Krylov–Rayleigh–Ritz
+//! on the shift-invert operator, started from the static responses `L⁻¹ P K_ib`, each mode
+//! converged to the relative residual [`ComponentReductionOptions::eigen_tolerance`]).
 //! Finally `K_r = Tᵀ K T`, `M_r = Tᵀ M T` (dense, symmetrized).
 //!
 //! # Rotation speed
@@ -38,15 +31,13 @@ use crate::model::rom::{
     ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix,
     ModalData, Recovery, RecoveryNode,
 };
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::prelude::*;
-use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
-    factorize_symbolic_cholesky, supernodal::SupernodalLltRef,
+use crate::model::sparse_eigen::{
+    CholeskyFactor, Pencil, SparseEigenError, SparseEigenOptions, hermitian_spmm_t,
+    lowest_eigenpairs,
 };
+use faer::Mat;
+use faer::prelude::*;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, Mat, Side};
 use nalgebra::DMatrix;
 use std::collections::HashMap;
 use thiserror::Error;
@@ -93,10 +84,10 @@ pub struct ComponentReductionOptions {
     pub n_modes: usize,
     /// Damping model stored in the ROM.
     pub damping: Damping,
-    /// Convergence tolerance of the fixed-interface modes: residual of each eigenpair of the
-    /// shift-invert operator relative to its eigenvalue μ = 1/λ. The modes only span the
-    /// reduction basis (the reduced matrices are the exact projections) and Ritz values are
-    /// accurate to the square of the residual, so 1e-5 is ample.
+    /// Convergence tolerance of the fixed-interface modes: largest relative residual
+    /// `‖K_ii φ − λ M_ii φ‖ / ‖K_ii φ‖` of each mode ([`crate::model::sparse_eigen`]). The
+    /// modes only span the reduction basis (the reduced matrices are the exact projections)
+    /// and Ritz values are accurate to the square of the residual, so 1e-5 is ample.
     pub eigen_tolerance: f64,
     /// FE nodes whose rows of the reduction basis `T` are kept in the ROM (its
     /// [`Recovery`]), so that their displacement can be recovered from the ROM coordinates.
@@ -175,17 +166,10 @@ pub enum ComponentError {
         "the interior stiffness K_ii is not positive definite (is the component clamped?): {0}"
     )]
     NotPositiveDefinite(String),
-    /// The interior mass matrix `M_ii` is not positive definite on the fixed-interface modes.
-    #[error("the mass matrix is not positive definite on the fixed-interface modes")]
-    MassNotPositive,
-    /// The sparse eigensolver did not converge all requested fixed-interface modes.
-    #[error("the eigensolver converged {converged} of {wanted} fixed-interface modes")]
-    EigenNotConverged {
-        /// Number of modes converged.
-        converged: usize,
-        /// Number of modes requested.
-        wanted: usize,
-    },
+    /// The sparse eigensolver of the fixed-interface modes failed (e.g. did not converge, or
+    /// the mass matrix is not positive definite on the modes).
+    #[error("fixed-interface modes: {0}")]
+    Eigen(SparseEigenError),
     /// The dense generalized eigenproblem of the reduced model failed (holds its message).
     #[error("dense eigen-solution of the reduced model failed: {0}")]
     ReducedEigen(String),
@@ -298,418 +282,11 @@ fn extract(
     SparseColMat::new(symbolic, val)
 }
 
-/// Supernodal Cholesky factor `P A Pᵀ = L Lᵀ` that owns its storage.
-#[derive(Debug)]
-struct Factor {
-    symbolic: SymbolicCholesky<usize>,
-    values: Vec<f64>,
-    /// `fwd[i]` = original index of permuted index i.
-    fwd: Vec<usize>,
-    par: Par,
-}
-
-impl Factor {
-    /// Factors the SPD matrix whose lower triangle is `a_low`.
-    fn new(a_low: &SparseColMat<usize, f64>, par: Par) -> Result<Self, ComponentError> {
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        let symbolic = factorize_symbolic_cholesky(
-            a_low.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            params,
-        )
-        .map_err(|e| ComponentError::Sparse(format!("symbolic Cholesky: {e:?}")))?;
-        let mut values = vec![0.0f64; symbolic.len_val()];
-        let mut mem =
-            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
-        symbolic
-            .factorize_numeric_llt(
-                &mut values,
-                a_low.as_ref(),
-                Side::Lower,
-                Default::default(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|e| ComponentError::NotPositiveDefinite(format!("{e:?}")))?;
-        let fwd = match symbolic.perm() {
-            Some(p) => p.arrays().0.to_vec(),
-            None => (0..a_low.nrows()).collect(),
-        };
-        Ok(Self {
-            symbolic,
-            values,
-            fwd,
-            par,
-        })
-    }
-
-    fn n(&self) -> usize {
-        self.fwd.len()
-    }
-
-    fn supernodal(&self) -> SupernodalLltRef<'_, usize, f64> {
-        match self.symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(s) => SupernodalLltRef::new(s, &self.values),
-            // FORCE_SUPERNODAL guarantees the supernodal structure.
-            SymbolicCholeskyRaw::Simplicial(_) => unreachable!("supernodal factor was forced"),
-        }
-    }
-
-    fn scratch(&self, ncols: usize) -> StackReq {
-        match self.symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(s) => s.solve_in_place_scratch::<f64>(ncols, self.par),
-            SymbolicCholeskyRaw::Simplicial(_) => StackReq::EMPTY,
-        }
-    }
-
-    /// `x ← L⁻¹ x` (permuted space).
-    fn l_solve(&self, x: MatMut<'_, f64>, stack: &mut MemStack) {
-        self.supernodal()
-            .l_solve_with_conj(Conj::No, x, self.par, stack);
-    }
-
-    /// `x ← L⁻ᵀ x` (permuted space).
-    fn lt_solve(&self, x: MatMut<'_, f64>, stack: &mut MemStack) {
-        self.supernodal()
-            .l_transpose_solve_with_conj(Conj::No, x, self.par, stack);
-    }
-
-    /// `x ← A⁻¹ x` (original ordering); returns the intermediate `L⁻¹ P x` (permuted space).
-    fn solve(&self, mut x: MatMut<'_, f64>) -> Mat<f64> {
-        let n = self.n();
-        let mut mem = MemBuffer::new(self.scratch(x.ncols()));
-        let stack = MemStack::new(&mut mem);
-        let mut y = Mat::<f64>::zeros(n, x.ncols());
-        for j in 0..x.ncols() {
-            for i in 0..n {
-                y[(i, j)] = x[(self.fwd[i], j)];
-            }
-        }
-        self.l_solve(y.as_mut(), stack);
-        let half = y.clone();
-        self.lt_solve(y.as_mut(), stack);
-        for j in 0..x.ncols() {
-            for i in 0..n {
-                x[(self.fwd[i], j)] = y[(i, j)];
-            }
-        }
-        half
-    }
-}
-
-/// `Yᵗ = Xᵗ A` for a symmetric sparse `A` (full storage, so column j = row j) and a dense
-/// `Xᵗ` stored transposed (r × n, column i = row i of X): `Yᵗ[:, j] = Σ_i a_ij Xᵗ[:, i]`.
-/// Each stored entry costs one contiguous axpy of length r, and output columns are
-/// independent (rayon over column chunks): much faster than a sparse × dense product over
-/// a column-major X with many columns.
-fn sym_spmm_t(a: &SparseColMat<usize, f64>, xt: MatRef<'_, f64>, mut yt: MatMut<'_, f64>) {
-    use rayon::prelude::*;
-    let r = xt.nrows();
-    let n = a.ncols();
-    debug_assert!(xt.ncols() == n && yt.ncols() == n && yt.nrows() == r);
-    let x = xt.rb();
-    // Column views of a faer Mat are contiguous; split the output by columns for rayon.
-    let mut cols: Vec<ColMut<'_, f64>> = Vec::with_capacity(n);
-    let mut rest = yt.rb_mut();
-    for _ in 0..n {
-        let (c, tail) = rest.split_at_col_mut(1);
-        cols.push(c.col_mut(0));
-        rest = tail;
-    }
-    cols.par_iter_mut()
-        .with_min_len(256)
-        .enumerate()
-        .for_each(|(j, y)| {
-            let y = y.as_mut();
-            let ys = y
-                .try_as_col_major_mut()
-                .expect("contiguous column")
-                .as_slice_mut();
-            ys.fill(0.0);
-            for (i, &v) in a.row_idx_of_col(j).zip(a.val_of_col(j)) {
-                let xs = x
-                    .col(i)
-                    .try_as_col_major()
-                    .expect("contiguous column")
-                    .as_slice();
-                for (yk, xk) in ys.iter_mut().zip(xs) {
-                    *yk += v * xk;
-                }
-            }
-        });
-}
-
-/// Shift-invert operator `C = L⁻¹ (P M Pᵀ) L⁻ᵀ` (symmetric, eigenvalues `μ = 1/λ`),
-/// applied to blocks of vectors.
-struct ShiftInvert<'a> {
-    factor: &'a Factor,
-    mass: &'a SparseColMat<usize, f64>,
-}
-
-impl ShiftInvert<'_> {
-    /// `out = C rhs` for a block of columns.
-    fn apply(&self, mut out: MatMut<'_, f64>, rhs: MatRef<'_, f64>) {
-        let n = self.factor.n();
-        let p = rhs.ncols();
-        let fwd = &self.factor.fwd;
-        let mut mem = MemBuffer::new(self.factor.scratch(p));
-        let stack = MemStack::new(&mut mem);
-        let mut y = rhs.to_owned();
-        self.factor.lt_solve(y.as_mut(), stack);
-        // Back to the original ordering (and transposed for the product with M), then forward.
-        let mut ut = Mat::<f64>::zeros(p, n);
-        for j in 0..p {
-            for i in 0..n {
-                ut[(j, fwd[i])] = y[(i, j)];
-            }
-        }
-        let mut vt = Mat::<f64>::zeros(p, n);
-        sym_spmm_t(self.mass, ut.as_ref(), vt.as_mut());
-        for j in 0..p {
-            for i in 0..n {
-                out[(i, j)] = vt[(j, fwd[i])];
-            }
-        }
-        self.factor.l_solve(out, stack);
-    }
-}
-
-/// Deterministic pseudo-random block with entries in [−0.5, 0.5) (xorshift64).
-fn random_block(n: usize, p: usize, seed: u64) -> Mat<f64> {
-    let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ seed.wrapping_mul(0xD1B5_4A32_D192_ED03);
-    Mat::<f64>::from_fn(n, p, |_, _| {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    })
-}
-
-/// Removes from `w` its components in the span of the orthonormal columns of `q`
-/// (block classical Gram–Schmidt, twice for stability).
-fn project_out(q: MatRef<'_, f64>, w: &mut Mat<f64>) {
-    if q.ncols() == 0 {
-        return;
-    }
-    for _ in 0..2 {
-        let c = q.transpose() * &*w;
-        *w -= q * &c;
-    }
-}
-
-/// Orthonormalizes the columns of `w`, already orthogonal to the orthonormal columns of
-/// `q`, among themselves: Cholesky-QR twice (`W ← W R⁻¹` with `RᵀR = WᵀW`, BLAS-3). If the
-/// Gram matrix is numerically singular (the Krylov space is exhausted in some direction),
-/// falls back to modified Gram–Schmidt where a vanishing column is replaced by a fresh
-/// random one orthogonalized against `q` and the previous columns.
-fn orthonormalize(q: MatRef<'_, f64>, w: &mut Mat<f64>, seed: u64) {
-    for _ in 0..2 {
-        let gram = w.transpose() * &*w;
-        let Ok(llt) = gram.llt(Side::Lower) else {
-            return orthonormalize_mgs(q, w, seed);
-        };
-        let l = llt.L();
-        // Condition check: a tiny pivot means near-dependent columns, which CholQR would
-        // amplify; use the robust path then.
-        let d = l.diagonal().column_vector();
-        let (dmin, dmax) = (0..d.nrows()).fold((f64::INFINITY, 0.0f64), |(a, b), i| {
-            (a.min(d[i]), b.max(d[i]))
-        });
-        if dmin.is_nan() || dmin <= 1e-6 * dmax {
-            return orthonormalize_mgs(q, w, seed);
-        }
-        // W ← W L⁻ᵀ, i.e. solve L Wᵀ = Wᵀ.
-        let mut wt = w.transpose().to_owned();
-        l.solve_lower_triangular_in_place(wt.as_mut());
-        *w = wt.transpose().to_owned();
-    }
-}
-
-/// Modified Gram–Schmidt (twice) fallback of [`orthonormalize`].
-fn orthonormalize_mgs(q: MatRef<'_, f64>, w: &mut Mat<f64>, seed: u64) {
-    let n = w.nrows();
-    for j in 0..w.ncols() {
-        let mut attempt = 0u64;
-        loop {
-            let before = w.col(j).norm_l2();
-            for _ in 0..2 {
-                let (done, mut rest) = w.as_mut().split_at_col_mut(j);
-                let mut wj = rest.rb_mut().col_mut(0);
-                for k in 0..j {
-                    let d = done.rb().col(k).transpose() * wj.rb();
-                    wj -= done.rb().col(k) * Scale(d);
-                }
-            }
-            let after = w.col(j).norm_l2();
-            if after > 1e-10 * before && after > 0.0 {
-                let mut wj = w.col_mut(j);
-                wj *= Scale(1.0 / after);
-                break;
-            }
-            attempt += 1;
-            let mut fresh = random_block(n, 1, seed + 1000 * attempt + j as u64);
-            project_out(q, &mut fresh);
-            w.col_mut(j).copy_from(fresh.col(0));
-        }
-    }
-}
-
-/// Block size of the block Krylov solver for `n_modes` wanted eigenpairs.
-fn block_size(n_modes: usize) -> usize {
-    n_modes + 14
-}
-
-/// Whether the interior problem is too small for the block Krylov solver (solved densely).
-fn solve_densely(n_modes: usize, n_interior: usize) -> bool {
-    n_interior <= 4 * block_size(n_modes)
-}
-
-/// Lowest `n_modes` eigenpairs of `K_ii φ = λ M_ii φ` (λ in (rad/s)², ascending; φ
-/// mass-normalized columns), from the factor of `K_ii` (see the module documentation).
-///
-/// Block Krylov–Rayleigh–Ritz on the shift-invert operator `C`: the subspace
-/// `span{Q₀, C Q₀, C² Q₀, …}` (`Q₀` = the columns of `start`, completed with random ones) grows by blocks of `p = n_modes + 14` vectors (fully
-/// reorthogonalized, so no spurious copies) until the `n_modes` largest Ritz pairs `(θ, x)`
-/// of `C` have residuals `‖C x − θ x‖ ≤ tolerance · θ`. The residual of a Ritz vector
-/// `x = Q y` is `(I − Q Qᵀ) C Q_last y_last` (earlier blocks are mapped into the basis), so
-/// it comes from the Gram matrix of the next, not yet normalized, block at no extra cost.
-/// Blocks make each application of `C` (two triangular solves and a product with `M`)
-/// a BLAS-3 operation on `p` columns, many times cheaper per vector than single-vector
-/// Krylov–Schur (faer's `partial_self_adjoint_eigen`), which took ~60 s on Rotor 37.
-fn fixed_interface_modes(
-    factor: &Factor,
-    m_ii: &SparseColMat<usize, f64>,
-    n_modes: usize,
-    tolerance: f64,
-    start: MatRef<'_, f64>,
-) -> Result<(Vec<f64>, Mat<f64>), ComponentError> {
-    let n = factor.n();
-    let op = ShiftInvert { factor, mass: m_ii };
-    let p = block_size(n_modes).min(n);
-    let max_dim = n.min(12 * p);
-    let mut q = Mat::<f64>::zeros(n, max_dim);
-    let mut aq = Mat::<f64>::zeros(n, max_dim);
-    let mut h = Mat::<f64>::zeros(max_dim, max_dim);
-    let mut block = random_block(n, p, 0);
-    let n_start = start.ncols().min(p);
-    block
-        .as_mut()
-        .subcols_mut(0, n_start)
-        .copy_from(start.subcols(0, n_start));
-    orthonormalize(q.as_ref().subcols(0, 0), &mut block, 0);
-    let (mut k, mut width) = (0usize, p); // basis size before the newest block, its width
-    loop {
-        // Append the newest block, apply C to it, and extend H = Qᵀ C Q.
-        q.as_mut().subcols_mut(k, width).copy_from(&block);
-        op.apply(
-            aq.as_mut().subcols_mut(k, width),
-            q.as_ref().subcols(k, width),
-        );
-        let cross = q.as_ref().subcols(0, k + width).transpose() * aq.as_ref().subcols(k, width);
-        for j in 0..width {
-            for i in 0..k + width {
-                h[(i, k + j)] = cross[(i, j)];
-                h[(k + j, i)] = cross[(i, j)];
-            }
-        }
-        let last = k;
-        k += width;
-        // Rayleigh–Ritz: the wanted pairs are the largest θ (eigenvalues come ascending).
-        let hk = Mat::<f64>::from_fn(k, k, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
-        let evd = hk
-            .self_adjoint_eigen(Side::Lower)
-            .map_err(|e| ComponentError::ReducedEigen(format!("{e:?}")))?;
-        let theta = evd.S().column_vector();
-        let want = n_modes.min(k);
-        let y = evd.U().subcols(k - want, want);
-        if !(theta[k - 1].is_finite() && theta[k - 1] > 0.0) {
-            return Err(ComponentError::MassNotPositive);
-        }
-        // Next block W = (I − QQᵀ) C Q_last and the residuals ‖W y_last‖.
-        block = aq.as_ref().subcols(last, width).to_owned();
-        project_out(q.as_ref().subcols(0, k), &mut block);
-        let gram = block.transpose() * &block;
-        let y_last = y.subrows(last, width);
-        let g_y = &gram * y_last;
-        let converged = (0..want)
-            .filter(|&j| {
-                let r2: f64 = (0..width).map(|i| y_last[(i, j)] * g_y[(i, j)]).sum();
-                r2.max(0.0).sqrt() <= tolerance * theta[k - want + j]
-            })
-            .count();
-        if (converged == want && want == n_modes) || k == n {
-            if want < n_modes {
-                return Err(ComponentError::EigenNotConverged {
-                    converged: want,
-                    wanted: n_modes,
-                });
-            }
-            let x = q.as_ref().subcols(0, k) * y;
-            return finish_modes(factor, m_ii, x);
-        }
-        if k == max_dim {
-            return Err(ComponentError::EigenNotConverged {
-                converged,
-                wanted: n_modes,
-            });
-        }
-        width = p.min(max_dim - k);
-        if width < block.ncols() {
-            block = block.subcols(0, width).to_owned();
-        }
-        orthonormalize(q.as_ref().subcols(0, k), &mut block, k as u64);
-    }
-}
-
-/// Maps Ritz vectors ψ of `C` back to mass-normalized modes `φ = Pᵀ L⁻ᵀ ψ`, with
-/// eigenvalues from the Rayleigh quotient `λ = φᵀKφ / φᵀMφ = ψᵀψ / φᵀMφ`, sorted ascending.
-fn finish_modes(
-    factor: &Factor,
-    m_ii: &SparseColMat<usize, f64>,
-    mut vecs: Mat<f64>,
-) -> Result<(Vec<f64>, Mat<f64>), ComponentError> {
-    let n = factor.n();
-    let n_modes = vecs.ncols();
-    let psi_norm2: Vec<f64> = (0..n_modes)
-        .map(|j| vecs.col(j).squared_norm_l2())
-        .collect();
-    let mut stack_mem = MemBuffer::new(factor.scratch(n_modes));
-    factor.lt_solve(vecs.as_mut(), MemStack::new(&mut stack_mem));
-    let mut phi_t = Mat::<f64>::zeros(n_modes, n);
-    for j in 0..n_modes {
-        for i in 0..n {
-            phi_t[(j, factor.fwd[i])] = vecs[(i, j)];
-        }
-    }
-    let mut m_phi_t = Mat::<f64>::zeros(n_modes, n);
-    sym_spmm_t(m_ii, phi_t.as_ref(), m_phi_t.as_mut());
-    let mut modes: Vec<(f64, usize, f64)> = Vec::with_capacity(n_modes);
-    for j in 0..n_modes {
-        let mm: f64 = (0..n).map(|i| phi_t[(j, i)] * m_phi_t[(j, i)]).sum();
-        if !(mm.is_finite() && mm > 0.0) {
-            return Err(ComponentError::MassNotPositive);
-        }
-        modes.push((psi_norm2[j] / mm, j, 1.0 / mm.sqrt()));
-    }
-    modes.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let lambdas = modes.iter().map(|m| m.0).collect();
-    let sorted = Mat::<f64>::from_fn(n, n_modes, |i, j| {
-        let (_, c, s) = modes[j];
-        phi_t[(c, i)] * s
-    });
-    Ok((lambdas, sorted))
-}
-
 /// `Tᵀ A T` for a sparse symmetric `A` (full storage) and a dense basis `T` (n × r), symmetrized.
 pub fn project(a: &SparseColMat<usize, f64>, t: MatRef<'_, f64>) -> DMatrix<f64> {
     let tt = t.transpose().to_owned();
     let mut yt = Mat::<f64>::zeros(t.ncols(), t.nrows());
-    sym_spmm_t(a, tt.as_ref(), yt.as_mut());
+    hermitian_spmm_t(a, tt.as_ref(), yt.as_mut());
     let r = &yt * t;
     let k = r.ncols();
     DMatrix::from_fn(k, k, |i, j| 0.5 * (r[(i, j)] + r[(j, i)]))
@@ -836,11 +413,15 @@ pub fn reduce_component(
     for (l, &g) in interior.iter().enumerate() {
         imap[g] = Some(l);
     }
-    let par = faer::get_global_parallelism();
-    let k_ii_low = extract(&mats.stiffness, &imap, ni, &interior, true);
+    let k_ii = extract(&mats.stiffness, &imap, ni, &interior, false);
     let m_ii = extract(&mats.mass, &imap, ni, &interior, false);
-    let factor = Factor::new(&k_ii_low, par)?;
-    drop(k_ii_low);
+    let to_error = |e| match e {
+        SparseEigenError::StiffnessNotDefinite(detail) => {
+            ComponentError::NotPositiveDefinite(detail)
+        }
+        e => ComponentError::Eigen(e),
+    };
+    let factor = CholeskyFactor::new(&k_ii, faer::get_global_parallelism()).map_err(to_error)?;
 
     // Constraint modes Ψ = −K_ii⁻¹ K_ib.
     let k_ib = extract(&mats.stiffness, &imap, ni, &boundary, false);
@@ -848,28 +429,21 @@ pub fn reduce_component(
     drop(k_ib);
     // `L⁻¹ P K_ib = Lᵀ P K_ii⁻¹ K_ib`: the static responses to boundary loads in the space of
     // the shift-invert operator, dominated by low modes: a good start for the Krylov space.
-    let start = factor.solve(psi.as_mut());
-    let phi = if !solve_densely(opts.n_modes, ni) {
-        fixed_interface_modes(
-            &factor,
-            &m_ii,
-            opts.n_modes,
-            opts.eigen_tolerance,
-            start.as_ref(),
-        )?
-        .1
-    } else {
-        // Small interior: the Krylov space would be the whole space; solve densely.
-        let k_ii = extract(&mats.stiffness, &imap, ni, &interior, false);
-        let dense = |a: &SparseColMat<usize, f64>| {
-            let d = a.to_dense();
-            DMatrix::from_fn(ni, ni, |i, j| d[(i, j)])
-        };
-        let (_, x) = dense_eigen(&dense(&k_ii), &dense(&m_ii), opts.n_modes)?;
-        Mat::<f64>::from_fn(ni, opts.n_modes, |i, j| x[(i, j)])
+    let start = factor.solve_in_place(psi.as_mut());
+    let pencil = Pencil {
+        stiffness: &k_ii,
+        mass: &m_ii,
+        factor: &factor,
     };
-    drop(m_ii);
-    drop(factor);
+    let phi = lowest_eigenpairs(
+        &pencil,
+        opts.n_modes,
+        start.as_ref(),
+        &SparseEigenOptions::new(opts.eigen_tolerance),
+    )
+    .map_err(to_error)?
+    .vectors;
+    drop((k_ii, m_ii, factor, start));
 
     // T over the original DOF ordering; columns [boundary (3 n_c); modes (n_m)].
     let nr = nb + opts.n_modes;
@@ -1100,28 +674,31 @@ mod tests {
         // Large enough that the block Krylov subspace stays well below the problem size.
         let mats = lattice(10, 6, 5);
         let n = mats.dofs.len();
-        let all: Vec<usize> = (0..n).collect();
-        let map: Vec<Option<usize>> = (0..n).map(Some).collect();
-        let low = extract(&mats.stiffness, &map, n, &all, true);
-        let factor = Factor::new(&low, Par::Seq).unwrap();
+        let factor = CholeskyFactor::new(&mats.stiffness, Par::Seq).unwrap();
         // Solve check against the dense matrix.
         let kd = to_dmatrix(&mats.stiffness);
         let md = to_dmatrix(&mats.mass);
         let mut x = Mat::<f64>::from_fn(n, 2, |i, j| (i + 3 * j) as f64 / n as f64);
         let b = x.clone();
-        factor.solve(x.as_mut());
+        factor.solve_in_place(x.as_mut());
         let xd = DMatrix::from_fn(n, 2, |i, j| x[(i, j)]);
         let bd = DMatrix::from_fn(n, 2, |i, j| b[(i, j)]);
         assert!((&kd * &xd - &bd).amax() < 1e-12 * bd.amax());
 
-        let (lam, phi) = fixed_interface_modes(
-            &factor,
-            &mats.mass,
+        let pencil = Pencil {
+            stiffness: &mats.stiffness,
+            mass: &mats.mass,
+            factor: &factor,
+        };
+        let pairs = lowest_eigenpairs(
+            &pencil,
             8,
-            1e-10,
             Mat::<f64>::zeros(n, 0).as_ref(),
+            &SparseEigenOptions::new(1e-10),
         )
         .unwrap();
+        assert!(pairs.stats.solves > 0, "the Krylov route must be taken");
+        let (lam, phi) = (pairs.values, pairs.vectors);
         let (f_ref, _) = dense_modes(&kd, &md, 8).unwrap();
         for (l, f) in lam.iter().zip(&f_ref) {
             let f_sparse = l.sqrt() / (2.0 * std::f64::consts::PI);
@@ -1254,38 +831,6 @@ mod tests {
             reduce_component(&free, &[ok], &opts),
             Err(ComponentError::NotPositiveDefinite(_))
         ));
-    }
-
-    #[test]
-    fn orthonormalize_handles_dependent_columns() {
-        let n = 200;
-        let mut q = random_block(n, 5, 7);
-        orthonormalize(Mat::<f64>::zeros(n, 0).as_ref(), &mut q, 1);
-        for dependent in [false, true] {
-            let mut w = random_block(n, 6, 9);
-            if dependent {
-                // Column 3 = column 1 + a multiple of q's columns: vanishes after projection.
-                let c1 = w.col(1).to_owned() + q.col(0) * Scale(2.0);
-                w.col_mut(3).copy_from(&c1);
-            }
-            project_out(q.as_ref(), &mut w);
-            orthonormalize(q.as_ref(), &mut w, 3);
-            let g = w.transpose() * &w;
-            let c = q.transpose() * &w;
-            for i in 0..6 {
-                for j in 0..6 {
-                    let e = if i == j { 1.0 } else { 0.0 };
-                    assert!(
-                        (g[(i, j)] - e).abs() < 1e-12,
-                        "dependent {dependent}: {:?}",
-                        g[(i, j)]
-                    );
-                }
-                for r in 0..5 {
-                    assert!(c[(r, i)].abs() < 1e-12);
-                }
-            }
-        }
     }
 
     #[test]

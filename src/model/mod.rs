@@ -12,3 +12,4 @@ pub(crate) mod hex20;
 pub mod mesh;
 pub mod reduction;
 pub mod rom;
+pub mod sparse_eigen;

@@ -15,9 +15,10 @@
 //! for each harmonic, so the harmonic route is equivalent and N times cheaper. The reduced
 //! matrices are `Vᴴ A V` for `A = M, K0, K1`; `K2 = 0` (linear prestress).
 //!
-//! `K_II` is factorised by a sparse Cholesky (faer); the fixed-interface modes come from a
-//! dense generalized eigensolver when the interior is small and from a shift-invert subspace
-//! iteration on that factor otherwise. The nodal diameters are processed in parallel (rayon).
+//! `K_II` is factorised by a sparse Cholesky (faer, [`crate::model::sparse_eigen`]); the
+//! fixed-interface modes come from the sparse block Krylov solver on that factor, converged
+//! to the relative residual `‖K φ − λ M φ‖ ≤ 1e-9 ‖K φ‖`. Real harmonics are solved in real
+//! arithmetic. The nodal diameters are processed in parallel (rayon).
 
 use crate::model::cyclic::{CyclicDofMap, CyclicError, SectorTopology, is_real_harmonic};
 use crate::model::eigen::{EigenError, dense_gen_eigen};
@@ -26,13 +27,22 @@ use crate::model::mesh::SectorMesh;
 use crate::model::rom::{
     Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData, RomError,
 };
-use faer::prelude::Solve;
+use crate::model::sparse_eigen::{
+    CholeskyFactor, Eigenpairs, Pencil, Scalar, SparseEigenError, SparseEigenOptions,
+    lowest_eigenpairs,
+};
 use faer::sparse::{SparseColMat, Triplet};
-use faer::{Mat, MatRef, Side, c64};
+use faer::{Mat, MatRef, c64};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use thiserror::Error;
+
+/// Revision of the reduction's numerics, part of the key of the on-disk ROM cache
+/// ([`crate::io::model_cache`]): bump it with every change that alters the numbers of a built
+/// ROM, or a machine's cache keeps serving ROMs of the old code (the crate version does not
+/// change with such commits). 2: fixed-interface modes from [`crate::model::sparse_eigen`].
+pub const NUMERICS_REVISION: u32 = 2;
 
 /// Options of the cyclic Craig–Bampton reduction.
 #[derive(Clone, Debug, PartialEq)]
@@ -49,9 +59,6 @@ pub(crate) struct ReductionOptions {
     pub name: String,
     /// Damping model stored in the ROM.
     pub damping: Damping,
-    /// Interior problems up to this many DOFs use the dense generalized eigensolver; larger
-    /// ones use shift-invert subspace iteration on the sparse Cholesky factor of `K_II`.
-    pub dense_eigen_limit: usize,
 }
 
 impl Default for ReductionOptions {
@@ -62,7 +69,6 @@ impl Default for ReductionOptions {
             component: Component::Casing,
             name: "sector".into(),
             damping: Damping::default(),
-            dense_eigen_limit: 600,
         }
     }
 }
@@ -135,17 +141,13 @@ pub enum ReductionError {
         /// The eigensolver's error.
         source: EigenError,
     },
-    /// The shift-invert subspace iteration for the fixed-interface modes did not converge.
-    #[error(
-        "nodal diameter {k}: subspace iteration did not converge in {iterations} iterations (relative residual {residual:.2e})"
-    )]
-    NoConvergence {
+    /// The sparse eigensolver of the fixed-interface modes failed (e.g. did not converge).
+    #[error("nodal diameter {k}: fixed-interface modes: {source}")]
+    SparseEigen {
         /// Nodal diameter.
         k: usize,
-        /// Iterations done.
-        iterations: usize,
-        /// Largest relative residual `‖K φ − λ M φ‖ / ‖K φ‖` of the kept modes.
-        residual: f64,
+        /// The sparse eigensolver's error.
+        source: SparseEigenError,
     },
     /// The reduced model fails the ROM's own validation.
     #[error("reduced model is invalid: {0}")]
@@ -344,31 +346,22 @@ pub(crate) fn reduce_harmonic(
         k_ib[(e.row - nb, e.col)] += e.val;
     }
 
-    // Constraint modes Ψ = −K_II⁻¹ K_IB.
-    let llt = k_ii
-        .sp_cholesky(Side::Lower)
-        .map_err(|e| ReductionError::InteriorNotDefinite {
-            k,
-            detail: format!("{e:?}"),
-        })?;
-    let mut psi = llt.solve(&k_ib);
-    for j in 0..nb {
-        psi.col_mut(j).iter_mut().for_each(|x| *x = -*x);
-    }
-    if real {
-        zero_imag(&mut psi);
-    }
-
-    // Lowest fixed-interface modes, M_II-normalized.
+    // Constraint modes Ψ = −K_II⁻¹ K_IB and the lowest fixed-interface modes, M_II-normalized;
+    // in real arithmetic for the real harmonics (real Ψ and Φ keep their reduced blocks real).
     let n_m = opts.modes_per_diameter.min(ni);
-    let (lam, phi) = if n_m == 0 {
-        (vec![], Mat::zeros(ni, 0))
-    } else if ni <= opts.dense_eigen_limit {
-        let (lam, phi) = dense_gen_eigen(k_ii.to_dense().as_ref(), m_ii.to_dense().as_ref(), real)
-            .map_err(|source| ReductionError::Eigen { k, source })?;
-        (lam[..n_m].to_vec(), phi.subcols(0, n_m).to_owned())
+    let (psi, lam, phi) = if real {
+        let (psi, pairs) = interior_modes(
+            &real_part(&k_ii)?,
+            &real_part(&m_ii)?,
+            Mat::from_fn(ni, nb, |i, j| k_ib[(i, j)].re),
+            n_m,
+            k,
+        )?;
+        let phi = to_complex(pairs.vectors.as_ref());
+        (to_complex(psi.as_ref()), pairs.values, phi)
     } else {
-        subspace_iteration(&k_ii, &m_ii, &llt, n_m, real, k)?
+        let (psi, pairs) = interior_modes(&k_ii, &m_ii, k_ib, n_m, k)?;
+        (psi, pairs.values, pairs.vectors)
     };
 
     // Basis V = [[I, 0], [Ψ, Φ]] over (B, I) → (q_B, η).
@@ -461,12 +454,6 @@ pub fn modal_data(
     Ok(data)
 }
 
-fn zero_imag(a: &mut Mat<c64>) {
-    for j in 0..a.ncols() {
-        a.col_mut(j).iter_mut().for_each(|x| x.im = 0.0);
-    }
-}
-
 /// Hermitian part of a reduced matrix, as the ROM's (re, im) pair; exactly real for the real harmonics.
 fn to_hermitian(a: MatRef<'_, c64>, real: bool) -> HermitianMatrix {
     let n = a.nrows();
@@ -487,90 +474,68 @@ pub fn to_faer(h: &HermitianMatrix) -> Mat<c64> {
     })
 }
 
-/// Lowest `n_m` eigenpairs of `K x = λ M x` by subspace iteration with Rayleigh–Ritz on the
-/// sparse Cholesky factor of `K` (shift 0: `K` is definite here). Converges at the rate
-/// `λ_i / λ_{p+1}` with `p = max(2 n_m, n_m + 8)` trial vectors.
-fn subspace_iteration(
-    k: &SparseColMat<usize, c64>,
-    m: &SparseColMat<usize, c64>,
-    llt: &faer::sparse::linalg::solvers::Llt<usize, c64>,
+/// Relative residual `‖K φ − λ M φ‖ / ‖K φ‖` to which each fixed-interface mode is converged:
+/// the Craig–Bampton basis is then exact to far below the reduction's own truncation error.
+const FIXED_INTERFACE_TOLERANCE: f64 = 1e-9;
+
+/// Constraint modes `Ψ = −K_II⁻¹ K_IB` and the lowest `n_m` fixed-interface eigenpairs
+/// (`M_II`-normalized) of nodal diameter `kd`, from one sparse Cholesky factor of `K_II`
+/// ([`crate::model::sparse_eigen`]). The static responses to the boundary loads seed the
+/// Krylov space.
+fn interior_modes<T: Scalar>(
+    k_ii: &SparseColMat<usize, T>,
+    m_ii: &SparseColMat<usize, T>,
+    mut k_ib: Mat<T>,
     n_m: usize,
-    real: bool,
     kd: usize,
-) -> Result<(Vec<f64>, Mat<c64>), ReductionError> {
-    const MAX_ITER: usize = 300;
-    const TOL: f64 = 1e-12;
-    let n = k.nrows();
-    let p = (2 * n_m).max(n_m + 8).min(n);
-    // Deterministic pseudo-random start (an LCG): reproducible reductions.
-    let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
-    let mut x = Mat::from_fn(n, p, |_, _| {
-        seed = seed
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        c64::new((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5, 0.0)
-    });
-    let mut prev = vec![f64::INFINITY; n_m];
-    let mut lam = vec![];
-    let mut iterations = 0;
-    let mut residual = f64::INFINITY;
-    for _ in 0..MAX_ITER {
-        iterations += 1;
-        let mut y = llt.solve(&(m * &x));
-        if real {
-            zero_imag(&mut y);
+) -> Result<(Mat<T>, Eigenpairs<T>), ReductionError> {
+    let par = faer::get_global_parallelism();
+    let to_error = |source| match source {
+        SparseEigenError::StiffnessNotDefinite(detail) => {
+            ReductionError::InteriorNotDefinite { k: kd, detail }
         }
-        for j in 0..p {
-            let nrm = y.col(j).norm_l2();
-            if nrm > 0.0 {
-                y.col_mut(j).iter_mut().for_each(|v| *v /= nrm);
-            }
-        }
-        let kr = y.adjoint() * (k * &y);
-        let mr = y.adjoint() * (m * &y);
-        let (l, q) = dense_gen_eigen(kr.as_ref(), mr.as_ref(), real)
-            .map_err(|source| ReductionError::Eigen { k: kd, source })?;
-        x = &y * &q;
-        let settled = (0..n_m).all(|i| (l[i] - prev[i]).abs() <= TOL * l[i].abs());
-        prev.copy_from_slice(&l[..n_m]);
-        lam = l;
-        // Eigenvalues settle quadratically faster than eigenvectors: once they have, iterate
-        // until the modes themselves are accurate.
-        if settled {
-            residual = worst_residual(k, m, x.subcols(0, n_m), &lam[..n_m]);
-            if residual < 1e-9 {
-                break;
-            }
-        }
+        source => ReductionError::SparseEigen { k: kd, source },
+    };
+    let factor = CholeskyFactor::new(k_ii, par).map_err(to_error)?;
+    let start = factor.solve_in_place(k_ib.as_mut());
+    let psi = -k_ib;
+    if n_m == 0 {
+        let none = Eigenpairs {
+            values: vec![],
+            vectors: Mat::zeros(k_ii.nrows(), 0),
+            stats: Default::default(),
+        };
+        return Ok((psi, none));
     }
-    if residual.is_nan() || residual >= 1e-6 {
-        return Err(ReductionError::NoConvergence {
-            k: kd,
-            iterations,
-            residual,
-        });
-    }
-    Ok((lam[..n_m].to_vec(), x.subcols(0, n_m).to_owned()))
+    let pencil = Pencil {
+        stiffness: k_ii,
+        mass: m_ii,
+        factor: &factor,
+    };
+    let eig_opts = SparseEigenOptions {
+        tolerance: FIXED_INTERFACE_TOLERANCE,
+        par,
+    };
+    let pairs = lowest_eigenpairs(&pencil, n_m, start.as_ref(), &eig_opts).map_err(to_error)?;
+    Ok((psi, pairs))
 }
 
-/// Worst relative residual ‖Kφ − λMφ‖ / ‖Kφ‖ over the columns of `phi`.
-fn worst_residual(
-    k: &SparseColMat<usize, c64>,
-    m: &SparseColMat<usize, c64>,
-    phi: MatRef<'_, c64>,
-    lam: &[f64],
-) -> f64 {
-    let kphi = k * phi;
-    let mphi = m * phi;
-    (0..phi.ncols())
-        .map(|j| {
-            let r: f64 = (0..phi.nrows())
-                .map(|i| (kphi[(i, j)] - mphi[(i, j)] * lam[j]).norm_sqr())
-                .sum::<f64>()
-                .sqrt();
-            r / kphi.col(j).norm_l2()
-        })
-        .fold(0.0, f64::max)
+/// The real part of a sparse complex matrix (a real harmonic's matrices, whose imaginary
+/// parts are zero).
+fn real_part(a: &SparseColMat<usize, c64>) -> Result<SparseColMat<usize, f64>, ReductionError> {
+    let symbolic = a
+        .symbolic()
+        .to_owned()
+        .map_err(|e| CyclicError::Sparse(format!("{e:?}")))?;
+    Ok(SparseColMat::new(
+        symbolic,
+        a.val().iter().map(|v| v.re).collect(),
+    ))
+}
+
+/// A real matrix as a complex one.
+fn to_complex(a: MatRef<'_, f64>) -> Mat<c64> {
+    Mat::from_fn(a.nrows(), a.ncols(), |i, j| c64::new(a[(i, j)], 0.0))
 }
 
 #[cfg(test)]
@@ -598,7 +563,7 @@ mod tests {
     }
 
     /// Lowest eigenvalues of the unreduced harmonic-k sector problem with K0 + Ω² K1: dense for
-    /// small sectors; shift-invert subspace iteration on the sparse Cholesky factor for large
+    /// small sectors; the sparse solver (block Krylov on the Cholesky factor of K) for large
     /// ones, because the dense route (Cholesky of M, then a symmetric eigensolver on
     /// L⁻¹KL⁻ᴴ) loses the lowest eigenvalues of the built-in impeller (‖L⁻¹KL⁻ᴴ‖ ≈ 6e14 from
     /// nodes of 0.45 mg): it returned −7.4e7 rad²/s² for a positive definite pencil.
@@ -624,8 +589,16 @@ mod tests {
             }
         }
         let kw = SparseColMat::try_new_from_triplets(k0.nrows(), k0.ncols(), &t).unwrap();
-        let llt = kw.sp_cholesky(Side::Lower).unwrap();
-        subspace_iteration(&kw, &m, &llt, 20, real, k).unwrap().0
+        let factor = CholeskyFactor::new(&kw, faer::Par::Seq).unwrap();
+        let pencil = Pencil {
+            stiffness: &kw,
+            mass: &m,
+            factor: &factor,
+        };
+        let start = Mat::<c64>::zeros(kw.nrows(), 0);
+        lowest_eigenpairs(&pencil, 20, start.as_ref(), &SparseEigenOptions::new(1e-9))
+            .unwrap()
+            .values
     }
 
     fn reduced(block: &HarmonicBlock, omega: f64, real: bool) -> Vec<f64> {
@@ -911,32 +884,35 @@ mod tests {
         }
     }
 
+    /// The fixed-interface modes of every harmonic (real and complex) from the sparse solver
+    /// against the dense solver of `model::eigen` on the same interior pencil.
     #[test]
-    fn subspace_iteration_agrees_with_dense_eigensolver() {
+    fn sparse_eigensolver_agrees_with_dense_eigensolver() {
         let s = truss_sector(8, false);
-        let dense = reduce_sector_model(&model(&s), &opts(6)).unwrap();
-        let iterative = reduce_sector_model(
-            &model(&s),
-            &ReductionOptions {
-                dense_eigen_limit: 0,
-                ..opts(6)
-            },
-        )
-        .unwrap();
-        let a = &dense.provenance["fixed_interface_hz"];
-        let b = &iterative.provenance["fixed_interface_hz"];
-        for (fa, fb) in a.as_array().unwrap().iter().zip(b.as_array().unwrap()) {
-            for (x, y) in fa.as_array().unwrap().iter().zip(fb.as_array().unwrap()) {
-                let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
-                assert!((x - y).abs() <= 1e-9 * x, "{x} vs {y}");
-            }
-        }
-        for (da, db) in dense.modal_data.iter().zip(&iterative.modal_data) {
-            // Rigid-body modes of the free sector are zero up to round-off: compare on the
-            // spectrum scale.
-            let scale = da.frequencies[0].last().unwrap().abs();
-            for (x, y) in da.frequencies[0].iter().zip(&db.frequencies[0]) {
-                assert!((x - y).abs() <= 1e-7 * scale, "{x} vs {y}");
+        let m = model(&s);
+        let o = opts(6);
+        let rom = reduce_sector_model(&m, &o).unwrap();
+        let map = boundary_first_map(&m, &o).unwrap();
+        let fi: Vec<Vec<f64>> =
+            serde_json::from_value(rom.provenance["fixed_interface_hz"].clone()).unwrap();
+        let nb = map.n_first();
+        for (k, sparse_hz) in fi.iter().enumerate() {
+            let interior = |a: &SparseColMat<usize, f64>| {
+                let d = map.harmonic_matrix(a, k).unwrap().to_dense();
+                d.submatrix(nb, nb, d.nrows() - nb, d.ncols() - nb)
+                    .to_owned()
+            };
+            let (kk, mm) = (interior(&s.k), interior(&s.m));
+            assert!(
+                kk.nrows() > 4 * 6,
+                "the interior must not be trivially small"
+            );
+            let real = is_real_harmonic(k, s.n_sectors);
+            let dense = dense_gen_eigen(kk.as_ref(), mm.as_ref(), real).unwrap().0;
+            assert_eq!(sparse_hz.len(), 6);
+            for (x, &l) in sparse_hz.iter().zip(&dense) {
+                let y = signed_hz(l);
+                assert!((x - y).abs() <= 1e-9 * y, "k = {k}: {x} vs {y}");
             }
         }
     }
