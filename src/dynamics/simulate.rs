@@ -327,6 +327,10 @@ struct CasingSide {
     q: Vec<Vector3<f64>>,
     pnodes: Vec<Vector3<f64>>,
     q_corrected: Vec<Vector3<f64>>,
+    /// With a massless boundary and the dense kernel (whose `q` is refreshed to the corrected
+    /// surface), the predicted control points of this step, which the next step's slip
+    /// increments start from (see `Blades::nodes_predicted`). Empty otherwise.
+    q_predicted: Vec<Vector3<f64>>,
     /// The surface at the end of the previous step (friction increments, eq. 15).
     past: PastSurface,
     /// Largest radius (m) of the casing at rest (scale of the residual tolerance).
@@ -416,6 +420,7 @@ impl CasingSide {
                 touched: vec![],
             },
             q_corrected: q.clone(),
+            q_predicted: Vec::new(),
             spline,
             n_sectors,
             rows,
@@ -1186,6 +1191,9 @@ impl<'a> Simulation<'a> {
     /// state. On sample steps the corrected channels are synthesised too, into a surface kept aside
     /// for the residual check.
     fn correct_casing(&mut self, next_load: f64) -> Result<(), SimError> {
+        // A massless boundary's static response to these loads is found again next step:
+        // the slip increments then start from the predicted surface (see `nodes_predicted`).
+        let massless = self.case.numerics.boundary == Boundary::Massless;
         let c = &mut self.contact;
         let Some(cs) = self.casing.surface_mut() else {
             return Ok(());
@@ -1205,13 +1213,16 @@ impl<'a> Simulation<'a> {
                     (&mut c.wu, &mut c.wv),
                     &mut c.fc,
                 )?;
-                if lazy {
+                if lazy && !massless {
                     c.loads.push((cd.param, force));
                 }
             }
         }
         f.frames.finish_forces(&mut c.fc);
         if !lazy {
+            if massless {
+                cs.q_predicted.clone_from(&cs.q);
+            }
             f.kernel.get_mut().correct_then_predict(&c.fc, next_load);
             cs.refresh()?;
         } else if self.sample_step {
@@ -1233,9 +1244,14 @@ impl<'a> Simulation<'a> {
         // The casing points the candidates touch, after the correction: moved by
         // ΔS_k = Σ_l V(k, l) F_l when the channels are not refreshed.
         let nk = c.cands.len();
+        let q = if massless && !lazy {
+            &cs.q_predicted
+        } else {
+            &cs.q
+        };
         for (k, cd) in c.cands.iter().enumerate() {
-            let mut x = surface_point(&cs.spline, &cs.q, &cd.param)?;
-            if lazy {
+            let mut x = surface_point(&cs.spline, q, &cd.param)?;
+            if lazy && !massless {
                 for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
                     x -= c.vblk[k * nk + l] * (b.fdir * *lb);
                 }
@@ -1306,8 +1322,13 @@ impl<'a> Simulation<'a> {
         if let Some(cs) = self.casing.surface_mut()
             && cs.flexible.is_some()
         {
-            // The next step's spline rewrites every control point of `q` before reading any.
-            std::mem::swap(&mut cs.past.q, &mut cs.q);
+            // The next step's spline rewrites every control point of `q` (and the next
+            // correction of `q_predicted`) before reading any.
+            if cs.q_predicted.is_empty() {
+                std::mem::swap(&mut cs.past.q, &mut cs.q);
+            } else {
+                std::mem::swap(&mut cs.past.q, &mut cs.q_predicted);
+            }
             std::mem::swap(&mut cs.past.loads, &mut self.contact.loads);
             self.contact.loads.clear();
             std::mem::swap(&mut cs.past.touched, &mut self.contact.touched);
