@@ -73,7 +73,25 @@ pub fn bench_with_offsets(
     load: Option<LobeLoad>,
     steps: usize,
 ) -> Result<BenchResult, SimError> {
-    let h = bench_step(impeller, casing, omega)?;
+    let numerics = Numerics {
+        time_step: bench_step(impeller, casing, omega)?,
+        kernel,
+        ..Default::default()
+    };
+    bench_case(impeller, casing, omega, numerics, offs, load, steps)
+}
+
+/// [`bench_with_offsets`] with explicit numerics (time step, kernel, boundary model).
+pub fn bench_case(
+    impeller: &CyclicRom,
+    casing: &CyclicRom,
+    omega: f64,
+    numerics: Numerics,
+    offs: Vec<f64>,
+    load: Option<LobeLoad>,
+    steps: usize,
+) -> Result<BenchResult, SimError> {
+    let h = numerics.time_step;
     let casing = CasingModel::Flexible(casing.clone());
     let case = Case {
         omega,
@@ -84,11 +102,7 @@ pub fn bench_with_offsets(
         casing_probes: vec![],
         probes: vec![],
         initial_velocity: InitialVelocity::default(),
-        numerics: Numerics {
-            time_step: h,
-            kernel,
-            ..Default::default()
-        },
+        numerics,
         coating: None,
     };
     let out = simulate(&case, impeller, &casing, None)?;

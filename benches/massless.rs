@@ -1,0 +1,120 @@
+//! The paper's formulation against the massless boundary, side by side in one run (#24):
+//! core-seconds per simulated millisecond on the built-in paper-scale models rubbing under a
+//! held two-lobe casing load (as `stage_breakdown`'s `BENCH_BUILTIN` case) at Ω = 3000 rad/s,
+//! the paper's step 1e-7 s against the massless boundary at half its own stability limit;
+//! then, when `results/rotor37/blade_benchmark.rom` exists (README), the Rotor 37 benchmark's
+//! 50 revolutions in both formulations. Single thread; the two sides alternate, best of two.
+//!
+//! `cargo bench --bench massless`
+
+mod common;
+
+use common::{BENCH_LOBE_DEPTH, bench_case, radial_clearance};
+use rubscan::dynamics::numerics::{Boundary, Numerics};
+use rubscan::dynamics::scenario::LobeLoad;
+use rubscan::dynamics::structure::Structure;
+use rubscan::model::build::{CasingSpec, ImpellerSpec};
+use std::path::Path;
+
+const OMEGA: f64 = 3000.0;
+/// Simulated time of each built-in run (s).
+const SIMULATED: f64 = 2e-3;
+
+fn main() -> anyhow::Result<()> {
+    faer::set_global_parallelism(faer::Par::Seq);
+    let imp = rubscan::app::impeller_rom(&ImpellerSpec::default())?;
+    let cas = rubscan::app::casing_rom(&CasingSpec::default())?;
+    let limit = |b: Boundary| -> anyhow::Result<f64> {
+        Ok(Structure::new(&imp, OMEGA)?
+            .with_boundary(b)
+            .stability_limit()
+            .min(
+                Structure::new(&cas, 0.0)?
+                    .with_boundary(b)
+                    .stability_limit(),
+            ))
+    };
+    let sides = [
+        (Boundary::Mass, 1e-7),
+        (Boundary::Massless, 0.5 * limit(Boundary::Massless)?),
+    ];
+    let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap_or(0) + 1;
+    let depth = BENCH_LOBE_DEPTH * radial_clearance(&imp, &cas, rows / 2).max(0.0);
+    let mut best = [f64::INFINITY; 2];
+    for _ in 0..2 {
+        for (i, &(boundary, h)) in sides.iter().enumerate() {
+            let steps = (SIMULATED / h).round() as usize;
+            let load = LobeLoad {
+                lobes: 2,
+                static_displacement: depth,
+                ramp_time: 0.25 * SIMULATED,
+                hold_time: f64::INFINITY,
+            };
+            let numerics = Numerics {
+                time_step: h,
+                boundary,
+                ..Default::default()
+            };
+            let r = bench_case(
+                &imp,
+                &cas,
+                OMEGA,
+                numerics,
+                vec![0.0; rows],
+                Some(load),
+                steps,
+            )?;
+            let per_ms = r.us_per_step * 1e-6 * steps as f64 / (SIMULATED * 1e3);
+            best[i] = best[i].min(per_ms);
+            println!(
+                "built-in, {boundary:?}: h = {h:.3e} s, {:.0} steps/rev, {:.2} µs/step, \
+                 {per_ms:.3} core-s per simulated ms, contact on {:.3} of the steps",
+                r.steps_per_revolution, r.us_per_step, r.contact_step_fraction
+            );
+        }
+    }
+    println!(
+        "built-in: massless / mass core-seconds per simulated ms = {:.3} ({:.1}× fewer)",
+        best[1] / best[0],
+        best[0] / best[1]
+    );
+    rotor37()
+}
+
+/// The Rotor 37 benchmark in both formulations, if its ROM has been imported (README).
+fn rotor37() -> anyhow::Result<()> {
+    let rom = Path::new("results/rotor37/blade_benchmark.rom");
+    if !rom.exists() {
+        println!(
+            "Rotor 37: {} not found (see README), skipped",
+            rom.display()
+        );
+        return Ok(());
+    }
+    let text = std::fs::read_to_string("sweeps/rotor37_benchmark.json")?;
+    let dir = std::env::temp_dir().join(format!("rubscan-massless-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let massless_h = 2.0 * std::f64::consts::PI / (1344.0 * 1000.0);
+    for massless in [false, true, false, true] {
+        let mut spec: serde_json::Value = serde_json::from_str(&text)?;
+        spec["models"]["impeller"]["rom"] = serde_json::json!(std::fs::canonicalize(rom)?);
+        if massless {
+            spec["numerics"] = serde_json::json!({
+                "time_step_s": massless_h, "decimation": 1, "boundary": "massless"
+            });
+        }
+        let path = dir.join("spec.json");
+        std::fs::write(&path, serde_json::to_string(&spec)?)?;
+        let out = rubscan::app::simulate(&path, 0, Some(&dir.join("out")))?;
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json"))?)?;
+        println!(
+            "Rotor 37 benchmark, 50 revolutions, {}: {:.0} steps/rev, loop {:.2} s single thread",
+            if massless { "massless" } else { "mass" },
+            summary["steps_per_revolution"].as_f64().unwrap_or(f64::NAN),
+            summary["loop_seconds"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    std::fs::remove_dir_all(&dir)?;
+    Ok(())
+}
