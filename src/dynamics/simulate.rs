@@ -749,6 +749,11 @@ impl<'a> Simulation<'a> {
         set_initial_velocities(case, &st_i, st_c.as_ref(), &mut blades, &mut casing)?;
         let nn = blades.n_blades * blades.n_contact;
         let coating = match (&case.coating, casing.surface_mut()) {
+            (Some(_), _) if boundary == Boundary::Massless => {
+                return Err(SimError::InvalidCase(
+                    "an abradable coating with a massless boundary is not supported yet".into(),
+                ));
+            }
             (Some(cc), Some(side)) => {
                 let mut cs = CoatingStage::new(cc, impeller, &blades, case.friction, side)?;
                 cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;

@@ -19,6 +19,7 @@ use serde_json::Value;
 use crate::analysis::revolutions::RevolutionWindows;
 use crate::contact::ImposedGap;
 use crate::dynamics::abradable::CoatingMaterial;
+use crate::dynamics::numerics::Boundary;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
 pub use crate::dynamics::probes::ProbeSpec;
 use crate::model::build::{CasingSpec, ImpellerSpec};
@@ -717,6 +718,14 @@ impl SweepSpec {
                 reason: reason.into(),
             })
         };
+        if self.numerics.boundary == Boundary::Massless && sc.coating.is_some() {
+            reject(
+                "/numerics/boundary",
+                "a massless boundary with an abradable coating is not supported yet: the \
+                 coating's forces would need an implicit solve on the static boundary \
+                 flexibility (use \"mass\", the default)",
+            );
+        }
         if self.models.casing.is_rigid() {
             let flexible_only = "applies to a flexible casing only; a rigid casing";
             if sc.lobes.is_some() {
@@ -1234,6 +1243,20 @@ mod tests {
         let i = issues_of(v);
         assert!(
             i.iter().any(|s| s.starts_with("/job_time_limit_s: ")),
+            "{i:?}"
+        );
+    }
+
+    #[test]
+    fn a_coating_with_a_massless_boundary_is_rejected() {
+        let mut v = base();
+        v["numerics"]["boundary"] = serde_json::json!("massless");
+        assert!(spec_from_value(v.clone()).is_ok());
+        v["scenario"]["coating"] = serde_json::json!({});
+        let i = issues_of(v);
+        assert!(
+            i.iter().any(|s| s
+                .starts_with("/numerics/boundary: a massless boundary with an abradable coating")),
             "{i:?}"
         );
     }
