@@ -1,5 +1,5 @@
 //! The massless boundary gives the paper formulation's answer on the built-in paper-scale
-//! models (#24): the quickstart's two-lobe case at Ω = 3000 rad/s, μ = 0.15, the paper's
+//! models (#24), and the contact correction leaves no penetration there (#23): the quickstart's two-lobe case at Ω = 3000 rad/s, μ = 0.15, the paper's
 //! h = 1e-7 s against the massless boundary at half its own stability limit (about 7× the
 //! step). Shortened to 8 ms (the load ramps over 4 ms, then is released).
 
@@ -93,4 +93,26 @@ fn massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models(
         "casing peak {cas_ml:e} vs {cas_m:e}"
     );
     assert!((f_ml - f).abs() <= 1.5 * df, "dominant {f_ml} Hz vs {f} Hz");
+    for (out, level) in [(&mass, te), (&massless, te_ml)] {
+        let residual = out.summary.max_residual_penetration;
+        assert!(
+            residual <= 1e-8 * level,
+            "residual {residual:e} m, level {level:e} m"
+        );
+    }
+}
+
+/// The quickstart case at h = 2e-7 s (#23): the largest penetration left after the contact
+/// correction, over every step, is below 1e-8 of the vibration level.
+#[test]
+fn contact_correction_leaves_no_penetration_on_the_quickstart_case() {
+    let out = run(Boundary::Mass, 2e-7);
+    let level = peak(&out.blade_te_radial);
+    let residual = out.summary.max_residual_penetration;
+    eprintln!("h = 2e-7 s: residual {residual:.3e} m, level {level:.3e} m");
+    assert!(out.summary.contact_steps > 1000);
+    assert!(
+        residual <= 1e-8 * level,
+        "residual {residual:e} m, level {level:e} m"
+    );
 }

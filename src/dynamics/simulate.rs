@@ -628,6 +628,135 @@ fn check_stability(
     Ok((limit, steps_per_rev))
 }
 
+/// Most Newton iterations on the gaps of a casing surface per step (see
+/// `Simulation::refine_contact`): each removes the second-order part of what is left.
+const GAP_NEWTON_ITERATIONS: usize = 3;
+
+/// The gaps `d_k` (m) of the contact candidates after the correction of multipliers λ,
+/// without applying it: the corrected tip node `x_k + R(Ωt) R(θ_s) Δu_k(λ)` projected on the
+/// predicted casing surface translated by the casing's correction where it projects,
+/// `ΔS(p̂_k) = −Σ_l V(p̂_k, p_l) F_l` (see `Simulation::refine_contact`). The first call of a
+/// step finds `p̂_k` with the candidates' own blocks `V(p_k, p_l)`, then takes `V(p̂_k, p_l)`;
+/// later calls (λ changed by a few round-offs' worth of gap) keep those blocks.
+fn corrected_gaps(
+    blades: &Blades,
+    cs: &CasingSide,
+    r_om: &Matrix3<f64>,
+    c: &mut ContactProblem,
+    p: &mut Projector,
+    time: f64,
+) -> Result<(), SimError> {
+    let nk = c.cands.len();
+    for k in 0..nk {
+        let cd = &c.cands[k];
+        let du = blade_correction(&blades.kernel, blades.nb, &c.cands, &c.lambda, cd);
+        let x = blades.nodes[cd.node] + r_om * (blades.rot[cd.blade] * du);
+        let Some(flexible) = &cs.flexible else {
+            c.d[k] = project_one(cs, &x, cd.param, p, time)?.gap;
+            continue;
+        };
+        if c.vhat[k * nk].is_none() {
+            let mut y = x;
+            for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
+                y += c.vblk[k * nk + l] * (b.fdir * *lb);
+            }
+            c.phat[k] = project_one(cs, &y, cd.param, p, time)?.param;
+            casing_blocks_at(flexible, &cs.spline, c, k)?;
+        }
+        let mut at = project_one(cs, &translated(x, c, k), c.phat[k], p, time)?;
+        if moved(&at.param, &c.phat[k]) {
+            // λ moved the node's closest point on: the blocks there, and once more.
+            c.phat[k] = at.param;
+            casing_blocks_at(flexible, &cs.spline, c, k)?;
+            at = project_one(cs, &translated(x, c, k), c.phat[k], p, time)?;
+        }
+        c.phat[k] = at.param;
+        c.d[k] = at.gap;
+    }
+    Ok(())
+}
+
+/// `x + Σ_l V(p̂_k, p_l) F_l`: the point whose gap to the predicted surface is candidate k's
+/// gap to the corrected one.
+fn translated(x: Vector3<f64>, c: &ContactProblem, k: usize) -> Vector3<f64> {
+    let nk = c.cands.len();
+    let mut y = x;
+    for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
+        if let Some(v) = &c.vhat[k * nk + l] {
+            y += v * (b.fdir * *lb);
+        }
+    }
+    y
+}
+
+/// Whether a closest point moved by more than `1e-7` of a patch (≈ 1 nm on the paper's
+/// casing) from where the blocks `V(p̂_k, ·)` were taken: beyond it their change would show
+/// in the gap (the casing's correction turns its surface by up to ~1e-3 with a massless
+/// boundary).
+fn moved(a: &SurfaceParam, b: &SurfaceParam) -> bool {
+    a.i != b.i || a.j != b.j || (a.u - b.u).abs() + (a.v - b.v).abs() > 1e-7
+}
+
+/// The closest point of `x` on the predicted casing surface, from `warm` (at time `time`, s).
+fn project_one(
+    cs: &CasingSide,
+    x: &Vector3<f64>,
+    warm: SurfaceParam,
+    p: &mut Projector,
+    time: f64,
+) -> Result<Projection, SimError> {
+    p.res_warm[0] = Some(warm);
+    let found = project_nodes(
+        &cs.spline,
+        &cs.q,
+        std::slice::from_ref(x),
+        &mut p.res_warm,
+        p.eps,
+        &mut p.res_proj,
+    );
+    found.map_err(projection_failed(time))?;
+    Ok(p.res_proj[0])
+}
+
+/// `V(p̂_k, p_l)` of candidate k against every candidate l (the fast kernel's table; the dense
+/// kernel's flexibility through the spline weights, as in [`casing_w`]).
+fn casing_blocks_at(
+    f: &FlexibleCasing,
+    spline: &CasingSpline,
+    c: &mut ContactProblem,
+    k: usize,
+) -> Result<(), SimError> {
+    let nk = c.cands.len();
+    match &f.kernel {
+        Kernel::Modal { table, .. } => {
+            for l in 0..nk {
+                c.vhat[k * nk + l] = Some(table.pair_block(&c.phat[k], &c.cands[l].param));
+            }
+        }
+        Kernel::Dense { flexibility, .. } => {
+            let at = Cand {
+                param: c.phat[k],
+                ..c.cands[k]
+            };
+            let pair: Vec<Cand> = std::iter::once(at).chain(c.cands.iter().copied()).collect();
+            let mut blocks = vec![Matrix3::zeros(); (nk + 1) * (nk + 1)];
+            dense_pair_blocks(
+                f,
+                flexibility,
+                spline,
+                &pair,
+                &mut blocks,
+                &mut c.wu,
+                &mut c.wv,
+            )?;
+            for l in 0..nk {
+                c.vhat[k * nk + l] = Some(blocks[l + 1]);
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Gap tolerance of the contact correction, relative to the casing radius R: after the
 /// correction no contact candidate penetrates the corrected casing by more than
 /// `GAP_TOLERANCE · R` (m) in the linearised gaps, active or not (the active set of the
@@ -660,8 +789,13 @@ struct ContactProblem {
     active: Vec<usize>,
     lu: Vec<f64>,
     rhs: Vec<f64>,
-    /// Control-point flexibility blocks `V(k, l)` of the candidate pairs (fast casing).
+    /// Casing flexibility blocks `V(k, l)` (m/N, global) between the candidates' surface points.
     vblk: Vec<Matrix3<f64>>,
+    /// Box 4b: `V(p̂_k, p_l)` between the point `p̂_k` where candidate k projects after the
+    /// correction and the load points, computed once per step when first needed.
+    vhat: Vec<Option<Matrix3<f64>>>,
+    /// `p̂_k` of each candidate.
+    phat: Vec<SurfaceParam>,
     /// Boundary forces (N, sector-major) on the impeller and the casing.
     fi: Vec<f64>,
     fc: Vec<f64>,
@@ -795,11 +929,21 @@ impl<'a> Simulation<'a> {
             rhs: Vec::with_capacity(nn),
             vblk: vec![
                 Matrix3::zeros();
-                if casing.surface().and_then(CasingSide::lazy_table).is_some() {
+                if casing.flexible().is_some() {
                     nn * nn
                 } else {
                     0
                 }
+            ],
+            vhat: vec![None; nn * nn],
+            phat: vec![
+                SurfaceParam {
+                    i: 0,
+                    j: 0,
+                    u: 0.0,
+                    v: 0.0
+                };
+                nn
             ],
             fi: vec![0.0; blades.n_blades * blades.nb],
             fc: vec![0.0; ncs * nbc],
@@ -891,6 +1035,7 @@ impl<'a> Simulation<'a> {
                     break;
                 }
             }
+            self.refine_contact()?;
             self.correct()?;
         }
         self.advance()?;
@@ -1144,6 +1289,69 @@ impl<'a> Simulation<'a> {
             time: self.t1,
             reason: e.to_string(),
         })?;
+        self.clock.lap(Stage::ContactSolve);
+        Ok(())
+    }
+
+    /// Box 4b: Newton iterations on the gaps of a casing surface (the linearised correction of
+    /// eq. 18 leaves second-order residuals: surface curvature, the tangential part of the
+    /// correction). The correction is linear in λ, so before it is applied the corrected
+    /// tip node `x_k + Δx_k(λ)` and the casing displacement under it `ΔS_k(λ) = −Σ_l V(k, l)
+    /// F_l` are known: each candidate is projected again on the predicted surface translated
+    /// by `ΔS_k`. While an active candidate's gap or an inactive one's penetration exceeds the
+    /// tolerance, λ is solved again on the linear model about the current λ, same `W`
+    /// (`d' = g(λ) − W λ`). At most [`GAP_NEWTON_ITERATIONS`]; the residual check of box 5
+    /// measures what is left on the exact corrected surface.
+    fn refine_contact(&mut self) -> Result<(), SimError> {
+        let Casing::Surface(cs) = &self.casing else {
+            return Ok(());
+        };
+        let tol = self.casing.gap_tolerance();
+        let nk = self.contact.cands.len();
+        self.contact.vhat[..nk * nk].fill(None);
+        for iteration in 0..=GAP_NEWTON_ITERATIONS {
+            let c = &mut self.contact;
+            corrected_gaps(
+                &self.blades,
+                cs,
+                &self.r_om,
+                c,
+                &mut self.projector,
+                self.t1,
+            )?;
+            let settled = (0..nk).all(|k| {
+                let g = c.d[k];
+                if c.lambda[k] > 0.0 {
+                    g.abs() <= tol
+                } else {
+                    g >= -tol
+                }
+            });
+            if settled || iteration == GAP_NEWTON_ITERATIONS {
+                // What is left penetrating after the last correction: this step's residual.
+                let left = (0..nk).map(|k| -c.d[k]).fold(0.0, f64::max);
+                self.residual = self.residual.max(left);
+                break;
+            }
+            for k in 0..nk {
+                let wl: f64 = (0..nk).map(|l| c.w[k * nk + l] * c.lambda[l]).sum();
+                c.d[k] -= wl;
+            }
+            let solved = active_set_solve(
+                nk,
+                &c.w[..nk * nk],
+                &c.d[..nk],
+                tol,
+                &mut c.lambda,
+                &mut c.active,
+                &mut c.lu,
+                &mut c.rhs,
+            );
+            solved.map_err(|e| SimError::Diverged {
+                time: self.t1,
+                reason: e.to_string(),
+            })?;
+        }
         self.clock.lap(Stage::ContactSolve);
         Ok(())
     }
@@ -1584,30 +1792,64 @@ fn casing_w(
             }
         }
         Kernel::Dense { flexibility, .. } => {
-            let (ncs, mc) = (f.frames.rot.len(), f.frames.rest_rows.len());
-            let nbc = 3 * mc;
-            let (wu, wv) = (&mut c.wu, &mut c.wv);
-            let mut failed = None;
-            dense_w(flexibility, &c.cands, nk, w, |cd, row, is_f| {
-                let v = if is_f { cd.fdir } else { cd.n };
-                if let Err(e) = spline.node_weight_factors(&cd.param, wu, wv) {
-                    failed = Some(e);
-                    return;
+            let (cands, blocks) = (&c.cands, &mut c.vblk[..nk * nk]);
+            dense_pair_blocks(f, flexibility, spline, cands, blocks, &mut c.wu, &mut c.wv)?;
+            for (k, a) in c.cands.iter().enumerate() {
+                for (l, b) in c.cands.iter().enumerate() {
+                    w[k * nk + l] += a.n.dot(&(c.vblk[k * nk + l] * b.fdir));
                 }
-                for i in 0..ncs {
-                    let vl = f.frames.rot[i].transpose() * v;
-                    for j in 0..mc {
-                        let wgt = -wu[i] * wv[j];
-                        for d in 0..3 {
-                            row[i * nbc + 3 * j + d] = wgt * vl[d];
-                        }
-                    }
-                }
-            });
-            if let Some(e) = failed {
-                return Err(SimError::Spline(e.to_string()));
             }
         }
+    }
+    Ok(())
+}
+
+/// The dense casing's flexibility blocks `V(k, l)` (m/N, global) between the surface points
+/// of `cands` (row-major `nk × nk`): `e_aᵀ V(k, l) e_b = g_a(p_k) H g_b(p_l)ᵀ` with the spline
+/// weights of each point spread over the contact nodes in their sector frames (eq. 18).
+fn dense_pair_blocks(
+    f: &FlexibleCasing,
+    flexibility: &Mat<f64>,
+    spline: &CasingSpline,
+    cands: &[Cand],
+    blocks: &mut [Matrix3<f64>],
+    wu: &mut [f64],
+    wv: &mut [f64],
+) -> Result<(), SimError> {
+    let nk = cands.len();
+    let (ncs, mc) = (f.frames.rot.len(), f.frames.rest_rows.len());
+    let nbc = 3 * mc;
+    let mut failed = None;
+    let unit: Vec<Cand> = (cands.iter())
+        .flat_map(|cd| {
+            (0..3).map(move |a| Cand {
+                n: Vector3::ith(a, 1.0),
+                ..*cd
+            })
+        })
+        .collect();
+    let mut v = vec![0.0; 9 * nk * nk];
+    dense_w(flexibility, &unit, 3 * nk, &mut v, |cd, row, _| {
+        if let Err(e) = spline.node_weight_factors(&cd.param, wu, wv) {
+            failed = Some(e);
+            return;
+        }
+        for i in 0..ncs {
+            let vl = f.frames.rot[i].transpose() * cd.n;
+            for j in 0..mc {
+                let wgt = -wu[i] * wv[j];
+                for d in 0..3 {
+                    row[i * nbc + 3 * j + d] = wgt * vl[d];
+                }
+            }
+        }
+    });
+    if let Some(e) = failed {
+        return Err(SimError::Spline(e.to_string()));
+    }
+    for (kl, blk) in blocks.iter_mut().enumerate() {
+        let (k, l) = (kl / nk, kl % nk);
+        *blk = Matrix3::from_fn(|a, b| v[(3 * k + a) * 3 * nk + 3 * l + b]);
     }
     Ok(())
 }

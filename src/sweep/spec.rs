@@ -1532,6 +1532,7 @@ mod tests {
             },
             direction: GapDirection::PerNode(vec![[1.0, 0.0, 0.0]]),
         });
+        f.numerics.boundary = Boundary::Massless;
         vec![a, b, c, d, e, f]
     }
 
