@@ -636,15 +636,17 @@ const GAP_NEWTON_ITERATIONS: usize = 3;
 /// without applying it: the corrected tip node `x_k + R(Ωt) R(θ_s) Δu_k(λ)` projected on the
 /// predicted casing surface translated by the casing's correction where it projects,
 /// `ΔS(p̂_k) = −Σ_l V(p̂_k, p_l) F_l` (see `Simulation::refine_contact`). The first call of a
-/// step finds `p̂_k` with the candidates' own blocks `V(p_k, p_l)`, then takes `V(p̂_k, p_l)`;
-/// later calls (λ changed by a few round-offs' worth of gap) keep those blocks.
+/// step finds `p̂_k` with the candidates' own blocks `V(p_k, p_l)`; an inactive candidate
+/// then open by more than twice that translation (plus `tol`, m) stays open whatever the
+/// blocks at `p̂_k` and is not looked at again this step; the others take `V(p̂_k, p_l)` of
+/// the loaded candidates, kept while `p̂_k` does not move.
 fn corrected_gaps(
     blades: &Blades,
     cs: &CasingSide,
     r_om: &Matrix3<f64>,
     c: &mut ContactProblem,
     p: &mut Projector,
-    time: f64,
+    (time, tol): (f64, f64),
 ) -> Result<(), SimError> {
     let nk = c.cands.len();
     for k in 0..nk {
@@ -655,18 +657,34 @@ fn corrected_gaps(
             c.d[k] = project_one(cs, &x, cd.param, p, time)?.gap;
             continue;
         };
-        if c.vhat[k * nk].is_none() {
-            let mut y = x;
+        let mut shift = None;
+        if !c.blocks_taken[k] {
+            let mut t0 = Vector3::zeros();
             for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
-                y += c.vblk[k * nk + l] * (b.fdir * *lb);
+                t0 += c.vblk[k * nk + l] * (b.fdir * *lb);
             }
-            c.phat[k] = project_one(cs, &y, cd.param, p, time)?.param;
-            casing_blocks_at(flexible, &cs.spline, c, k)?;
+            let first = project_one(cs, &(x + t0), cd.param, p, time)?;
+            if c.lambda[k] == 0.0 && first.gap > 2.0 * t0.norm() + tol {
+                // Open whatever the blocks where it projects; looked at again after a new λ.
+                c.d[k] = first.gap;
+                continue;
+            }
+            (c.phat[k], c.blocks_taken[k], shift) = (first.param, true, Some(t0));
         }
-        let mut at = project_one(cs, &translated(x, c, k), c.phat[k], p, time)?;
-        if moved(&at.param, &c.phat[k]) {
-            // λ moved the node's closest point on: the blocks there, and once more.
+        casing_blocks_at(flexible, &cs.spline, c, k)?;
+        let y = translated(x, c, k);
+        if let Some(t0) = shift {
+            // How fast the casing's correction changes along the surface (m per unit of
+            // patch coordinates): from p_k to p̂_k.
+            let step = param_distance(&c.phat[k], &c.cands[k].param);
+            c.translation_rate[k] = (y - x - t0).norm() / step.max(f64::EPSILON);
+        }
+        let mut at = project_one(cs, &y, c.phat[k], p, time)?;
+        // What blocks taken at p̂_k would miss in the gap, were the closest point now at.
+        let stale = c.translation_rate[k] * param_distance(&at.param, &c.phat[k]);
+        if stale > 0.25 * tol {
             c.phat[k] = at.param;
+            c.vhat[k * nk..(k + 1) * nk].fill(None);
             casing_blocks_at(flexible, &cs.spline, c, k)?;
             at = project_one(cs, &translated(x, c, k), c.phat[k], p, time)?;
         }
@@ -689,12 +707,12 @@ fn translated(x: Vector3<f64>, c: &ContactProblem, k: usize) -> Vector3<f64> {
     y
 }
 
-/// Whether a closest point moved by more than `1e-7` of a patch (≈ 1 nm on the paper's
-/// casing) from where the blocks `V(p̂_k, ·)` were taken: beyond it their change would show
-/// in the gap (the casing's correction turns its surface by up to ~1e-3 with a massless
-/// boundary).
-fn moved(a: &SurfaceParam, b: &SurfaceParam) -> bool {
-    a.i != b.i || a.j != b.j || (a.u - b.u).abs() + (a.v - b.v).abs() > 1e-7
+/// Distance between two surface points in patch coordinates, `|Δ(i + u)| + |Δ(j + v)|`: what
+/// [`corrected_gaps`] scales the casing correction's rate by (it ignores the circumference's
+/// seam, where it reads large).
+fn param_distance(a: &SurfaceParam, b: &SurfaceParam) -> f64 {
+    let along = |i: usize, u: f64| i as f64 + u;
+    (along(a.i, a.u) - along(b.i, b.u)).abs() + (along(a.j, a.v) - along(b.j, b.v)).abs()
 }
 
 /// The closest point of `x` on the predicted casing surface, from `warm` (at time `time`, s).
@@ -718,8 +736,9 @@ fn project_one(
     Ok(p.res_proj[0])
 }
 
-/// `V(p̂_k, p_l)` of candidate k against every candidate l (the fast kernel's table; the dense
-/// kernel's flexibility through the spline weights, as in [`casing_w`]).
+/// The blocks `V(p̂_k, p_l)` of candidate k against the loaded candidates l (λ_l ≠ 0) that
+/// it lacks (the fast kernel's table; the dense kernel's flexibility through the spline
+/// weights, as in [`casing_w`], all of them at once).
 fn casing_blocks_at(
     f: &FlexibleCasing,
     spline: &CasingSpline,
@@ -730,9 +749,12 @@ fn casing_blocks_at(
     match &f.kernel {
         Kernel::Modal { table, .. } => {
             for l in 0..nk {
-                c.vhat[k * nk + l] = Some(table.pair_block(&c.phat[k], &c.cands[l].param));
+                if c.lambda[l] != 0.0 && c.vhat[k * nk + l].is_none() {
+                    c.vhat[k * nk + l] = Some(table.pair_block(&c.phat[k], &c.cands[l].param));
+                }
             }
         }
+        Kernel::Dense { .. } if c.vhat[k * nk..(k + 1) * nk].iter().all(Option::is_some) => {}
         Kernel::Dense { flexibility, .. } => {
             let at = Cand {
                 param: c.phat[k],
@@ -794,8 +816,13 @@ struct ContactProblem {
     /// Box 4b: `V(p̂_k, p_l)` between the point `p̂_k` where candidate k projects after the
     /// correction and the load points, computed once per step when first needed.
     vhat: Vec<Option<Matrix3<f64>>>,
-    /// `p̂_k` of each candidate.
+    /// `p̂_k` of each candidate, whether its blocks are taken there, and whether it was
+    /// found open with a margin (box 4b).
     phat: Vec<SurfaceParam>,
+    blocks_taken: Vec<bool>,
+    /// Per candidate: how fast the casing's correction changes along the surface between
+    /// `p_k` and `p̂_k` (m per unit of patch coordinates).
+    translation_rate: Vec<f64>,
     /// Boundary forces (N, sector-major) on the impeller and the casing.
     fi: Vec<f64>,
     fc: Vec<f64>,
@@ -936,6 +963,8 @@ impl<'a> Simulation<'a> {
                 }
             ],
             vhat: vec![None; nn * nn],
+            blocks_taken: vec![false; nn],
+            translation_rate: vec![0.0; nn],
             phat: vec![
                 SurfaceParam {
                     i: 0,
@@ -1308,17 +1337,13 @@ impl<'a> Simulation<'a> {
         };
         let tol = self.casing.gap_tolerance();
         let nk = self.contact.cands.len();
-        self.contact.vhat[..nk * nk].fill(None);
+        let c = &mut self.contact;
+        c.vhat[..nk * nk].fill(None);
+        c.blocks_taken[..nk].fill(false);
         for iteration in 0..=GAP_NEWTON_ITERATIONS {
             let c = &mut self.contact;
-            corrected_gaps(
-                &self.blades,
-                cs,
-                &self.r_om,
-                c,
-                &mut self.projector,
-                self.t1,
-            )?;
+            let at = (self.t1, tol);
+            corrected_gaps(&self.blades, cs, &self.r_om, c, &mut self.projector, at)?;
             let settled = (0..nk).all(|k| {
                 let g = c.d[k];
                 if c.lambda[k] > 0.0 {
