@@ -47,6 +47,7 @@ fn impeller() -> CyclicRom {
         nodes: vec![RecoveryNode {
             id: 901,
             position: imp.contact_nodes[1].position,
+            name: None,
         }],
         rows,
     };

@@ -637,6 +637,7 @@ mod tests {
             nodes: vec![RecoveryNode {
                 id: 1353,
                 position: [0.0, 0.2, 0.0],
+                name: None,
             }],
             rows,
         };

@@ -10,6 +10,7 @@ pub mod eigen;
 pub mod fe;
 pub(crate) mod hex20;
 pub mod mesh;
+pub(crate) mod recovery;
 pub mod reduction;
 pub mod rom;
 pub mod sparse_eigen;
