@@ -58,6 +58,7 @@ fn impeller() -> CyclicRom {
 fn probe(q: ProbeQuantity, c: Option<ProbeComponent>) -> ProbeSpec {
     ProbeSpec {
         node: None,
+        point: None,
         contact_node: None,
         blade: None,
         sector: None,

@@ -29,7 +29,8 @@ pub fn cache_dir() -> PathBuf {
 
 /// Loads a ROM from the cache, or builds it with `build` and stores it. The key hashes the
 /// component spec, the rubscan version, the ROM format version and the reduction's
-/// [`NUMERICS_REVISION`], so any change rebuilds.
+/// [`NUMERICS_REVISION`], so any change rebuilds; a cached ROM without recovery nodes (written
+/// before the built-in named nodes) is rebuilt.
 pub fn cached_rom<S: serde::Serialize>(
     kind: &str,
     spec: &S,
@@ -37,8 +38,11 @@ pub fn cached_rom<S: serde::Serialize>(
 ) -> Result<(CyclicRom, bool)> {
     let key = serde_json::json!({ "kind": kind, "spec": spec, "version": env!("CARGO_PKG_VERSION"), "format": ROM_FORMAT_VERSION, "numerics": NUMERICS_REVISION });
     let path = cache_dir().join(format!("{kind}-{}.rom", content_hash(&key)));
-    // A missing or unreadable cache entry is rebuilt.
-    if let Ok(rom) = rom_file::load(&path) {
+    // A missing or unreadable cache entry is rebuilt, and so is one written before the built-in
+    // models carried the recovery rows of their named nodes (same key, no recovery nodes).
+    if let Ok(rom) = rom_file::load(&path)
+        && !rom.recovery.nodes.is_empty()
+    {
         return Ok((rom, true));
     }
     let rom = build(spec)?;
