@@ -77,7 +77,10 @@ fn simulate_writes_the_probe_columns_of_the_spec() {
             {"blade": 0, "row": 0, "quantity": "displacement", "component": "radial"},
             {"blade": 1, "row": 0, "quantity": "gap"},
             {"blade": 1, "row": 0, "quantity": "normal_force"},
-            {"sector": 3, "row": 0, "quantity": "displacement", "component": "axial"}
+            {"sector": 3, "row": 0, "quantity": "displacement", "component": "axial"},
+            {"point": "leading_edge_mid_span", "quantity": "displacement", "component": "tangential"},
+            {"point": "trailing_edge_mid_span", "blade": 2, "quantity": "displacement", "component": "axial"},
+            {"point": "outer_mid_meridian", "sector": 3, "quantity": "displacement", "component": "radial"}
         ])
     });
     let out = dir.join("out");
@@ -102,6 +105,9 @@ fn simulate_writes_the_probe_columns_of_the_spec() {
         ("blade1_row0_gap_m", "m"),
         ("blade1_row0_normal_force_n", "N"),
         ("casing3_row0_axial_m", "m"),
+        ("leading_edge_mid_span_tangential_m", "m"),
+        ("blade2_trailing_edge_mid_span_axial_m", "m"),
+        ("casing3_outer_mid_meridian_radial_m", "m"),
     ] {
         let f = schema
             .field_with_name(name)
@@ -125,6 +131,18 @@ fn simulate_writes_the_probe_columns_of_the_spec() {
     let le = column("blade0_le_radial_m");
     assert!(le.iter().any(|x| *x != 0.0));
     assert_eq!(column("blade0_row0_radial_m"), le);
+    // The built-in models' named nodes move (recovered from the ROM state).
+    for name in [
+        "leading_edge_mid_span_tangential_m",
+        "blade2_trailing_edge_mid_span_axial_m",
+        "casing3_outer_mid_meridian_radial_m",
+    ] {
+        let v = column(name);
+        assert!(
+            v.iter().all(|x| x.is_finite()) && v.iter().any(|x| *x != 0.0),
+            "{name}"
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -272,7 +290,7 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
         String::from_utf8_lossy(&warm.stderr)
     );
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &[&str]); 11] = [
+    let cases: [(&str, Edit, &[&str]); 12] = [
         (
             "probe_typo",
             |v| v["scenario"]["probes"] = serde_json::json!([{"nod": 5, "quantity": "gap"}]),
@@ -297,7 +315,16 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
             |v| {
                 v["scenario"]["probes"] = serde_json::json!([{"node": 1353, "quantity": "displacement", "component": "y"}])
             },
-            &["/scenario/probes/0/node", "no recovery nodes"],
+            &["/scenario/probes/0/node", "not a recovery node"],
+        ),
+        (
+            "probe_point_unknown",
+            |v| v["scenario"]["probes"] = serde_json::json!([{"point": "outer_mid_meridian", "quantity": "displacement", "component": "y"}]),
+            &[
+                "/scenario/probes/0/point",
+                "not a named node of the impeller",
+                "leading_edge_mid_span",
+            ],
         ),
         (
             "scenario_typo",

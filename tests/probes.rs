@@ -47,6 +47,7 @@ fn impeller() -> CyclicRom {
         nodes: vec![RecoveryNode {
             id: 901,
             position: imp.contact_nodes[1].position,
+            name: None,
         }],
         rows,
     };
@@ -57,6 +58,7 @@ fn impeller() -> CyclicRom {
 fn probe(q: ProbeQuantity, c: Option<ProbeComponent>) -> ProbeSpec {
     ProbeSpec {
         node: None,
+        point: None,
         contact_node: None,
         blade: None,
         sector: None,

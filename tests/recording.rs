@@ -151,6 +151,7 @@ fn tip_probes(rows: usize, casing: Option<[usize; 2]>) -> Vec<ProbeSpec> {
         ] {
             v.push(ProbeSpec {
                 node: None,
+                point: None,
                 contact_node: None,
                 blade: Some(blade),
                 sector: None,
@@ -163,6 +164,7 @@ fn tip_probes(rows: usize, casing: Option<[usize; 2]>) -> Vec<ProbeSpec> {
     if let Some([sector, row]) = casing {
         v.push(ProbeSpec {
             node: None,
+            point: None,
             contact_node: None,
             blade: None,
             sector: Some(sector),

@@ -275,6 +275,9 @@ impl ProbeComponent {
 
 /// One probe as the spec gives it (JSON `scenario.probes[i]`). The node is one of:
 /// - `node`: a recovery node of the impeller ROM (FE id given at import), displacement only;
+/// - `point`: a named recovery node of a built-in model, displacement only: on blade `blade`
+///   (default 0) of the impeller (`leading_edge_mid_span`, `trailing_edge_mid_span`), or with
+///   `sector`, on that sector of a flexible casing (`outer_mid_meridian`);
 /// - `contact_node`: an impeller contact node by its FE id (imported models);
 /// - `blade` and `row`: impeller contact node `row` (0 = leading edge) of blade `blade`;
 /// - `sector` and `row`: contact node `row` of sector `sector` of a flexible casing,
@@ -288,6 +291,9 @@ pub struct ProbeSpec {
     /// FE id of a recovery node of the impeller ROM (displacement only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub node: Option<usize>,
+    /// Name of a built-in model's recovery node (impeller, or casing with `sector`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point: Option<String>,
     /// FE id of an impeller contact node (imported models).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_node: Option<usize>,
@@ -322,6 +328,13 @@ pub enum ProbeTarget {
         /// Blade index (0-based).
         blade: usize,
         /// Index in the impeller ROM's `contact_nodes`.
+        index: usize,
+    },
+    /// Recovery node `index` (in the casing ROM's [`Recovery::nodes`]) of casing sector `sector`.
+    CasingRecovery {
+        /// Casing sector index (0-based).
+        sector: usize,
+        /// Index in the casing ROM's [`Recovery::nodes`].
         index: usize,
     },
     /// Casing contact node `index` of sector `sector`.
@@ -394,20 +407,25 @@ fn resolve_one(
     imp: &CyclicRom,
     casing: Option<&CyclicRom>,
 ) -> Result<Probe, FieldError> {
+    let named = s.point.is_some();
     let given = [
         s.node.is_some(),
         s.contact_node.is_some(),
-        s.sector.is_some(),
-        s.row.is_some() && s.sector.is_none(),
+        named,
+        s.sector.is_some() && !named,
+        s.row.is_some() && s.sector.is_none() && !named,
     ];
     if given.iter().filter(|&&g| g).count() != 1 {
         return Err((
             "",
-            "give exactly one of `node`, `contact_node`, `blade` + `row` or `sector` + `row`"
+            "give exactly one of `node`, `point`, `contact_node`, `blade` + `row` or `sector` + \
+             `row`"
                 .into(),
         ));
     }
-    let (target, position, prefix) = if let Some(id) = s.node {
+    let (target, position, prefix) = if let Some(name) = &s.point {
+        named_point(s, name, imp, casing)?
+    } else if let Some(id) = s.node {
         let blade = check_blade(s.blade, imp)?;
         let index = recovery_index(&imp.recovery, id)?;
         let p = imp.recovery.nodes[index].position;
@@ -459,6 +477,57 @@ fn resolve_one(
         (target, p, format!("blade{blade}_row{row}"))
     };
     finish_probe(s, target, &position, prefix)
+}
+
+/// A named recovery node of a built-in model: of the impeller (blade `blade`, default 0), or of
+/// the flexible casing with `sector`.
+fn named_point(
+    s: &ProbeSpec,
+    name: &str,
+    imp: &CyclicRom,
+    casing: Option<&CyclicRom>,
+) -> Result<(ProbeTarget, [f64; 3], String), FieldError> {
+    if s.row.is_some() {
+        return Err(("row", "a `point` takes no `row`".into()));
+    }
+    let index = |rom: &CyclicRom, what: &str| {
+        rom.recovery.named(name).ok_or_else(|| {
+            let names: Vec<&str> = (rom.recovery.nodes.iter())
+                .filter_map(|n| n.name.as_deref())
+                .collect();
+            let reason = if names.is_empty() {
+                format!(
+                    "the {what} ROM has no named recovery nodes (named nodes belong to built-in \
+                     models; an imported model's recovery nodes are probed by `node`)"
+                )
+            } else {
+                format!("`{name}` is not a named node of the {what} (it has {names:?})")
+            };
+            ("point", reason)
+        })
+    };
+    if let Some(sector) = s.sector {
+        let rom = casing.ok_or_else(|| {
+            (
+                "sector",
+                "a casing probe needs a flexible casing (a rigid casing does not move)".to_string(),
+            )
+        })?;
+        if s.blade.is_some() {
+            return Err(("blade", "a casing probe takes `sector`, not `blade`".into()));
+        }
+        check_index("sector", sector, rom.n_sectors, "casing sectors")?;
+        let index = index(rom, "casing")?;
+        let target = ProbeTarget::CasingRecovery { sector, index };
+        let p = rom.recovery.nodes[index].position;
+        Ok((target, p, format!("casing{sector}_{name}")))
+    } else {
+        let blade = check_blade(s.blade, imp)?;
+        let index = index(imp, "impeller")?;
+        let p = imp.recovery.nodes[index].position;
+        let target = ProbeTarget::Recovery { blade, index };
+        Ok((target, p, blade_prefix(blade, name.to_string())))
+    }
 }
 
 /// The quantity's checks, direction, column name and unit.
@@ -637,6 +706,7 @@ mod tests {
             nodes: vec![RecoveryNode {
                 id: 1353,
                 position: [0.0, 0.2, 0.0],
+                name: None,
             }],
             rows,
         };
@@ -740,5 +810,83 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.reason.contains("recovery_nodes"), "{e}");
+    }
+
+    /// Named nodes of a built-in model: on a blade of the impeller, or with `sector` on the
+    /// casing; unknown names, a `row`, or a model without names are refused on `point`/`row`.
+    #[test]
+    fn named_points_resolve_on_impeller_and_casing() {
+        let mut imp = impeller();
+        imp.recovery.nodes[0].name = Some("leading_edge_mid_span".into());
+        let mut cas = synthetic_rom(&SyntheticSpec::small(Component::Casing, 4, 3, 1));
+        cas.recovery = Recovery {
+            nodes: vec![RecoveryNode {
+                id: 7,
+                position: [0.3, 0.0, 0.01],
+                name: Some("outer_mid_meridian".into()),
+            }],
+            rows: (cas.harmonics.iter())
+                .map(|h| ComplexRows {
+                    re: nalgebra::DMatrix::zeros(3, h.mass.size()),
+                    im: nalgebra::DMatrix::zeros(3, h.mass.size()),
+                })
+                .collect(),
+        };
+        cas.validate().unwrap();
+        let specs = [
+            spec(
+                serde_json::json!({"point": "leading_edge_mid_span", "blade": 2, "quantity": "displacement", "component": "y"}),
+            ),
+            spec(
+                serde_json::json!({"point": "outer_mid_meridian", "sector": 3, "quantity": "displacement", "component": "radial"}),
+            ),
+        ];
+        let p = resolve_probes(&specs, &imp, Some(&cas)).unwrap();
+        assert_eq!(p[0].column, "blade2_leading_edge_mid_span_y_m");
+        assert_eq!(p[0].target, ProbeTarget::Recovery { blade: 2, index: 0 });
+        assert_eq!(p[1].column, "casing3_outer_mid_meridian_radial_m");
+        assert_eq!(
+            p[1].target,
+            ProbeTarget::CasingRecovery {
+                sector: 3,
+                index: 0
+            }
+        );
+        assert!((p[1].direction - Vector3::x()).norm() < 1e-15);
+
+        let bad = |json: serde_json::Value, imp: &CyclicRom| {
+            resolve_probes(&[spec(json)], imp, Some(&cas)).unwrap_err()
+        };
+        let e = bad(
+            serde_json::json!({"point": "tip", "quantity": "displacement", "component": "y"}),
+            &imp,
+        );
+        assert!(
+            e.field == "point" && e.reason.contains("leading_edge_mid_span"),
+            "{e}"
+        );
+        let e = bad(
+            serde_json::json!({"point": "outer_mid_meridian", "sector": 4, "quantity": "displacement", "component": "y"}),
+            &imp,
+        );
+        assert_eq!(e.field, "sector", "{e}");
+        let e = bad(
+            serde_json::json!({"point": "leading_edge_mid_span", "row": 0, "quantity": "displacement", "component": "y"}),
+            &imp,
+        );
+        assert_eq!(e.field, "row", "{e}");
+        let e = bad(
+            serde_json::json!({"point": "leading_edge_mid_span", "quantity": "gap"}),
+            &imp,
+        );
+        assert_eq!(e.field, "quantity", "{e}");
+        let e = bad(
+            serde_json::json!({"point": "leading_edge_mid_span", "quantity": "displacement", "component": "y"}),
+            &impeller(),
+        );
+        assert!(
+            e.field == "point" && e.reason.contains("no named recovery nodes"),
+            "{e}"
+        );
     }
 }

@@ -866,6 +866,8 @@ pub struct Simulation<'a> {
     /// The impeller's recovery rows, their evaluator and its harmonic-state buffer (only when
     /// a probe reads a recovery node).
     recovery: Option<(Recovery, RecoveryEval, Vec<f64>)>,
+    /// The same for the flexible casing (only when a probe reads one of its recovery nodes).
+    casing_recovery: Option<(Recovery, RecoveryEval, Vec<f64>)>,
 }
 
 impl<'a> Simulation<'a> {
@@ -992,6 +994,17 @@ impl<'a> Simulation<'a> {
                 let eval = RecoveryEval::new(&st_i);
                 (impeller.recovery.clone(), eval, vec![0.0; st_i.n_modal])
             });
+        let casing_recovery = match (casing_rom, &st_c) {
+            (Some(rom), Some(st))
+                if probes
+                    .iter()
+                    .any(|p| matches!(p.target, ProbeTarget::CasingRecovery { .. })) =>
+            {
+                let eval = RecoveryEval::new(st);
+                Some((rom.recovery.clone(), eval, vec![0.0; st.n_modal]))
+            }
+            _ => None,
+        };
         Ok(Self {
             summary: RunSummary {
                 time_step: h,
@@ -1020,6 +1033,7 @@ impl<'a> Simulation<'a> {
             probe_values: vec![0.0; probes.len()],
             probes,
             recovery,
+            casing_recovery,
         })
     }
 
@@ -1662,6 +1676,10 @@ impl<'a> Simulation<'a> {
         if let Some((_, _, x)) = self.recovery.as_mut() {
             b.kernel.get().harmonic_state(x);
         }
+        if let (Some((_, _, x)), Some(f)) = (self.casing_recovery.as_mut(), self.casing.flexible())
+        {
+            f.kernel.get().harmonic_state(x);
+        }
         if let Some(f) = self.casing.flexible_mut()
             && self
                 .probes
@@ -1689,6 +1707,15 @@ impl<'a> Simulation<'a> {
                     )));
                 };
                 p.direction.dot(&eval.displacement(rec, index, blade, x))
+            }
+            (ProbeTarget::CasingRecovery { sector, index }, _) => {
+                let Some((rec, eval, x)) = self.casing_recovery.as_ref() else {
+                    return Err(SimError::InvalidCase(format!(
+                        "probe `{}` needs the flexible casing's recovery rows",
+                        p.column
+                    )));
+                };
+                p.direction.dot(&eval.displacement(rec, index, sector, x))
             }
             (ProbeTarget::Casing { sector, index }, _) => {
                 let flexible = self

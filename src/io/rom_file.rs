@@ -87,6 +87,10 @@ struct RomMeta {
     /// Ids of the recovery nodes (format 2; empty: no recovery matrix).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     recovery_node_ids: Vec<usize>,
+    /// Name of each recovery node (`null` for an unnamed one; absent when none is named: the
+    /// documented nodes of a built-in model have names).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    recovery_node_names: Vec<Option<String>>,
 }
 
 const MATRIX_NAMES: [&str; 4] = ["mass", "k0", "k1", "k2"];
@@ -189,6 +193,11 @@ pub fn to_bytes(rom: &CyclicRom) -> Result<Vec<u8>, safetensors::SafeTensorError
         provenance: rom.provenance.clone(),
         contact_node_ids: nodes.iter().map(|n| n.id).collect(),
         recovery_node_ids: rec.nodes.iter().map(|n| n.id).collect(),
+        recovery_node_names: if rec.nodes.iter().any(|n| n.name.is_some()) {
+            rec.nodes.iter().map(|n| n.name.clone()).collect()
+        } else {
+            vec![]
+        },
     };
     let info = HashMap::from([
         ("format".to_string(), FORMAT_NAME.to_string()),
@@ -350,7 +359,7 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
             stiffness: [read("k0")?, read("k1")?, read("k2")?],
         });
     }
-    let recovery = read_recovery(&meta, &harmonics, &tensor)?;
+    let recovery = read_recovery(&meta, &harmonics, &tensor, path)?;
     let mut modal_data = Vec::with_capacity(meta.modal_omega_count.len());
     for (k, &n_omega) in meta.modal_omega_count.iter().enumerate() {
         let omega = tensor(&format!("modal.{k}.omega"), &[n_omega])?;
@@ -410,18 +419,32 @@ fn read_recovery(
     meta: &RomMeta,
     harmonics: &[HarmonicBlock],
     tensor: &TensorReader<'_>,
+    path: &Path,
 ) -> Result<Recovery, RomFileError> {
     let ids = &meta.recovery_node_ids;
     if ids.is_empty() {
         return Ok(Recovery::default());
     }
+    let names = &meta.recovery_node_names;
+    if !names.is_empty() && names.len() != ids.len() {
+        return Err(RomFileError::Layout {
+            path: path.into(),
+            reason: format!(
+                "recovery_node_names has {} entries, recovery_node_ids {}",
+                names.len(),
+                ids.len()
+            ),
+        });
+    }
     let positions = tensor("recovery.position", &[ids.len(), 3])?;
     let nodes = ids
         .iter()
         .zip(positions.chunks_exact(3))
-        .map(|(&id, p)| RecoveryNode {
+        .enumerate()
+        .map(|(i, (&id, p))| RecoveryNode {
             id,
             position: [p[0], p[1], p[2]],
+            name: names.get(i).cloned().flatten(),
         })
         .collect();
     let nr = 3 * ids.len();
@@ -530,10 +553,12 @@ mod tests {
                 RecoveryNode {
                     id: 7,
                     position: [0.05, 0.01, 0.0],
+                    name: None,
                 },
                 RecoveryNode {
                     id: 1353,
                     position: [0.06, -0.01, 0.02],
+                    name: Some("leading_edge_mid_span".into()),
                 },
             ],
             rows: rom

@@ -140,6 +140,7 @@ fn reduce_built_in(
         component,
         name: format!("built-in {label}"),
         damping,
+        recovery_points: mesh.named_nodes.clone(),
     };
     let mut rom = reduce_cyclic(&mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
         component: label,

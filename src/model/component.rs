@@ -545,6 +545,7 @@ fn recovery_rows(
             .map(|p| RecoveryNode {
                 id: p.node,
                 position: p.position,
+                name: None,
             })
             .collect(),
         rows: vec![ComplexRows {

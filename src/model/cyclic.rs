@@ -296,6 +296,16 @@ impl CyclicDofMap {
         }
     }
 
+    /// Sector DOF `dof` of nodal diameter `k` as `Σ c_j ũ_j` over the independent DOFs `j`
+    /// (empty for a clamped DOF; a right-face DOF is `e^{ikα} R(α)` times its left partner's).
+    /// What a recovery row of an interior sector node is made of.
+    pub(crate) fn dof_terms(&self, dof: usize, k: usize) -> Vec<(usize, c64)> {
+        let phase = cyclic_phase(k, self.n_sectors);
+        let rot = rot_z(2.0 * PI / self.n_sectors as f64);
+        let (t, n, _) = self.terms(dof, phase, &rot);
+        t[..n].to_vec()
+    }
+
     fn check_shape(&self, rows: usize, cols: usize) -> Result<(), CyclicError> {
         let n = self.n_sector_dofs();
         if rows != n || cols != n {

@@ -525,6 +525,7 @@ pub(crate) mod tests {
             contact_nodes: vec![],
             clamped_nodes: vec![],
             material: mat,
+            named_nodes: vec![],
         };
         (mesh, blk)
     }
@@ -805,6 +806,7 @@ pub(crate) mod tests {
             contact_nodes: vec![],
             clamped_nodes: vec![],
             material: mat,
+            named_nodes: vec![],
         };
         for i in 0..d0 {
             for k in 0..d2 {

@@ -116,7 +116,30 @@ pub struct SectorMesh {
     pub clamped_nodes: Vec<usize>,
     /// Material of every element.
     pub material: Material,
+    /// Named interior nodes whose displacement the ROM can recover (built-in models, see
+    /// [`NamedNode`]); empty for other meshes.
+    pub named_nodes: Vec<NamedNode>,
 }
+
+/// A documented node of a built-in sector mesh, kept by the reduction as a recovery node:
+/// its name (probe `point`) and its index in [`SectorMesh::nodes`] (the node's id).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NamedNode {
+    /// Name a probe gives (`leading_edge_mid_span`, …).
+    pub name: &'static str,
+    /// Index of the node in the sector mesh.
+    pub node: usize,
+}
+
+/// Impeller blade, leading edge (inlet, φ = 0), mid-thickness, at mid-span (the element corner
+/// nearest mid-span when `elements_span` is odd).
+pub const LEADING_EDGE_MID_SPAN: &str = "leading_edge_mid_span";
+/// Impeller blade, trailing edge (outlet, φ = π/2), mid-thickness, at mid-span (as
+/// [`LEADING_EDGE_MID_SPAN`]).
+pub const TRAILING_EDGE_MID_SPAN: &str = "trailing_edge_mid_span";
+/// Casing outer surface (away from the flow), mid-meridian (φ = π/4), on the θ = 0 face of
+/// its sector: where an accelerometer on the casing skin sits.
+pub const OUTER_MID_MERIDIAN: &str = "outer_mid_meridian";
 
 impl SectorMesh {
     /// Sector angle α = 2π/N, rad.
@@ -588,6 +611,12 @@ impl CasingGeometry {
             contact_nodes: contact,
             clamped_nodes: clamped,
             material: self.material,
+            named_nodes: vec![NamedNode {
+                name: OUTER_MID_MERIDIAN,
+                node: blk
+                    .get(self.elements_meridian, 0, d2 - 1)
+                    .expect("corner-line nodes exist"),
+            }],
         };
         mesh.validate()?;
         Ok(mesh)
@@ -834,6 +863,10 @@ impl ImpellerGeometry {
         clamped.dedup();
         let step = 2 * nm / (self.contact_nodes - 1);
         let tip = blade.dims[2] - 1;
+        // Fine-grid span index of the element corner at (or nearest below) mid-span: with the
+        // meridian index even, a corner exists at mid-thickness (j = 1).
+        let mid = 2 * (self.elements_span / 2);
+        let on_edge = "mid-thickness edge nodes at element corners exist";
         let contact = (0..self.contact_nodes)
             .map(|c| {
                 blade
@@ -850,6 +883,16 @@ impl ImpellerGeometry {
             contact_nodes: contact,
             clamped_nodes: clamped,
             material: self.material,
+            named_nodes: vec![
+                NamedNode {
+                    name: LEADING_EDGE_MID_SPAN,
+                    node: blade.get(0, 1, mid).expect(on_edge),
+                },
+                NamedNode {
+                    name: TRAILING_EDGE_MID_SPAN,
+                    node: blade.get(2 * nm, 1, mid).expect(on_edge),
+                },
+            ],
         };
         mesh.validate()?;
         Ok(mesh)
@@ -878,6 +921,7 @@ impl ImpellerGeometry {
             contact_nodes: vec![],
             clamped_nodes: clamped,
             material: self.material,
+            named_nodes: vec![],
         })
     }
 }

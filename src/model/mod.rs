@@ -10,6 +10,9 @@ pub mod eigen;
 pub mod fe;
 pub(crate) mod hex20;
 pub mod mesh;
+pub(crate) mod recovery;
+#[cfg(test)]
+mod recovery_check;
 pub mod reduction;
 pub mod rom;
 pub mod sparse_eigen;

@@ -23,9 +23,11 @@
 use crate::model::cyclic::{CyclicDofMap, CyclicError, SectorTopology, is_real_harmonic};
 use crate::model::eigen::{EigenError, dense_gen_eigen};
 use crate::model::fe::SectorMatrices;
-use crate::model::mesh::SectorMesh;
+use crate::model::mesh::{NamedNode, SectorMesh};
+use crate::model::recovery::{harmonic_recovery_rows, recovery_of};
 use crate::model::rom::{
-    Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix, ModalData, RomError,
+    ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix,
+    ModalData, RomError,
 };
 use crate::model::sparse_eigen::{
     CholeskyFactor, Eigenpairs, Pencil, Scalar, SparseEigenError, SparseEigenOptions,
@@ -59,6 +61,8 @@ pub(crate) struct ReductionOptions {
     pub name: String,
     /// Damping model stored in the ROM.
     pub damping: Damping,
+    /// Sector nodes whose recovery rows the ROM keeps (the built-in models' named nodes).
+    pub recovery_points: Vec<NamedNode>,
 }
 
 impl Default for ReductionOptions {
@@ -69,6 +73,7 @@ impl Default for ReductionOptions {
             component: Component::Casing,
             name: "sector".into(),
             damping: Damping::default(),
+            recovery_points: Vec::new(),
         }
     }
 }
@@ -180,6 +185,8 @@ pub(crate) struct HarmonicReduction {
     pub modal: ModalData,
     /// Frequencies (Hz) of the kept fixed-interface modes, ascending.
     pub fixed_interface_hz: Vec<f64>,
+    /// Recovery rows of `opts.recovery_points` for this nodal diameter (no rows when none).
+    pub recovery: ComplexRows,
 }
 
 /// Reduces a built-in sector mesh and its assembled matrices to a [`CyclicRom`]
@@ -235,7 +242,14 @@ pub(crate) fn reduce_sector_model(
         "fixed_interface_hz": results.iter().map(|r| r.fixed_interface_hz.clone()).collect::<Vec<_>>(),
         "accuracy_cutoff_hz": results.iter().map(|r| accuracy_cutoff_hz(&r.fixed_interface_hz)).collect::<Vec<_>>(),
     });
-    let (harmonics, modal_data) = results.into_iter().map(|r| (r.block, r.modal)).unzip();
+    let mut rows = Vec::with_capacity(results.len());
+    let (harmonics, modal_data) = results
+        .into_iter()
+        .map(|r| {
+            rows.push(r.recovery);
+            (r.block, r.modal)
+        })
+        .unzip();
     let rom = CyclicRom {
         name: opts.name.clone(),
         component: opts.component,
@@ -245,7 +259,7 @@ pub(crate) fn reduce_sector_model(
         modal_data,
         damping: opts.damping,
         provenance,
-        recovery: Default::default(),
+        recovery: recovery_of(&opts.recovery_points, model.nodes, rows),
     };
     rom.validate()?;
     Ok(rom)
@@ -394,10 +408,12 @@ pub(crate) fn reduce_harmonic(
     };
     let modal = modal_data(&block, nb, real, &opts.omega_grid)
         .map_err(|source| ReductionError::Eigen { k, source })?;
+    let recovery = harmonic_recovery_rows(map, v.as_ref(), &opts.recovery_points, k);
     Ok(HarmonicReduction {
         block,
         modal,
         fixed_interface_hz: lam.iter().map(|&l| signed_hz(l)).collect(),
+        recovery,
     })
 }
 

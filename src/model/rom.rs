@@ -149,6 +149,10 @@ pub struct RecoveryNode {
     pub id: usize,
     /// Reference position in the global frame of sector 0 (m).
     pub position: [f64; 3],
+    /// Documented name of a built-in model's node (`leading_edge_mid_span`, …; see
+    /// [`crate::model::mesh::NamedNode`]); `None` for imported nodes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
 }
 
 /// Rows of the reduction basis at chosen FE nodes: the recovery matrix (DESIGN §2.1, the
@@ -179,6 +183,13 @@ impl Recovery {
     /// Index of the recovery node with FE id `id`.
     pub fn position_of(&self, id: usize) -> Option<usize> {
         self.nodes.iter().position(|n| n.id == id)
+    }
+
+    /// Index of the recovery node named `name` (built-in models).
+    pub fn named(&self, name: &str) -> Option<usize> {
+        self.nodes
+            .iter()
+            .position(|n| n.name.as_deref() == Some(name))
     }
 }
 
@@ -458,9 +469,15 @@ impl CyclicRom {
             };
         }
         let mut ids = std::collections::HashSet::new();
+        let mut names = std::collections::HashSet::new();
         for (i, n) in r.nodes.iter().enumerate() {
             if !ids.insert(n.id) {
                 return bad(format!("node {} is listed twice", n.id));
+            }
+            if let Some(name) = &n.name
+                && !names.insert(name)
+            {
+                return bad(format!("name `{name}` is given to two nodes"));
             }
             if n.position.iter().any(|x| !x.is_finite()) {
                 return bad(format!(

@@ -118,6 +118,56 @@ pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
     }
 }
 
+/// Rewrites every integral number written as a float (`2.0`, `1e3`) as an integer, in place.
+/// JSON Schema counts such a number as an `integer` (the schema accepts `"row": 2.0`), so the
+/// typed parse must read it as one too; a float field reads the same value either way. Numbers
+/// beyond the 64-bit integer range stay floats (and an integer field then reports them).
+pub(crate) fn integral_floats_as_integers(value: &mut Value) {
+    match value {
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or(f64::NAN);
+            // 2^64 and −2^63 are exact in f64; the bounds keep the casts exact.
+            let int = if x.fract() != 0.0 {
+                None
+            } else if (0.0..18_446_744_073_709_551_616.0).contains(&x) {
+                Some(serde_json::Number::from(x as u64))
+            } else if (-9_223_372_036_854_775_808.0..0.0).contains(&x) {
+                Some(serde_json::Number::from(x as i64))
+            } else {
+                None
+            };
+            if let Some(i) = int {
+                *n = i;
+            }
+        }
+        Value::Array(a) => a.iter_mut().for_each(integral_floats_as_integers),
+        Value::Object(m) => m.values_mut().for_each(integral_floats_as_integers),
+        _ => {}
+    }
+}
+
+/// Deserialises a schema-valid spec into its type; a value the type refuses is reported at
+/// its JSON pointer (`/scenario/probes/0/node`), like every other spec issue.
+pub(crate) fn typed<T: serde::de::DeserializeOwned>(mut value: Value) -> Result<T, SpecError> {
+    integral_floats_as_integers(&mut value);
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        use serde_path_to_error::Segment;
+        let pointer: String = e
+            .path()
+            .iter()
+            .filter_map(|seg| match seg {
+                Segment::Seq { index } => Some(format!("/{index}")),
+                Segment::Map { key } => {
+                    Some(format!("/{}", key.replace('~', "~0").replace('/', "~1")))
+                }
+                Segment::Enum { variant } => Some(format!("/{variant}")),
+                Segment::Unknown => None,
+            })
+            .collect();
+        SpecError::one(pointer, e.into_inner().to_string())
+    })
+}
+
 /// The closest name to `word` among `candidates` (Damerau–Levenshtein distance, so that a
 /// swap of two letters counts one edit, at most a third of the word's length and at least
 /// 1), or `None` when nothing is close.

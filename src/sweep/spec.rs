@@ -403,8 +403,7 @@ pub fn parse_spec(text: &str) -> Result<SweepSpec, SpecError> {
 /// Validates a JSON value (schema, serde, semantic checks) and converts it into a spec.
 pub fn spec_from_value(value: Value) -> Result<SweepSpec, SpecError> {
     validate_against_schema(&value)?;
-    let spec: SweepSpec =
-        serde_json::from_value(value).map_err(|e| SpecError::one("", e.to_string()))?;
+    let spec: SweepSpec = crate::sweep::schema::typed(value)?;
     spec.validate()?;
     Ok(spec)
 }
@@ -1448,6 +1447,7 @@ mod tests {
                 casing_probes: vec![[0, 1]],
                 probes: vec![ProbeSpec {
                     node: Some(1353),
+                    point: Some("leading_edge_mid_span".into()),
                     contact_node: Some(188),
                     blade: Some(0),
                     sector: Some(0),
@@ -1564,5 +1564,31 @@ mod tests {
     fn bad_json_reports_line() {
         let e = parse_spec("{\n \"name\": \"x\",\n}").unwrap_err();
         assert!(matches!(e, SpecError::Syntax { line: 3, .. }), "{e}");
+    }
+
+    /// The schema counts `2.0` as an integer, so the typed spec reads it as one; a number the
+    /// schema admits but the type cannot hold is reported at its JSON pointer.
+    #[test]
+    fn integral_float_ids_read_as_integers_and_type_errors_name_their_pointer() {
+        let mut v = base();
+        v["scenario"]["probes"] =
+            serde_json::json!([{"blade": 1.0, "row": 2.0, "quantity": "gap"}]);
+        v["scenario"]["lobes"] = serde_json::json!(3.0);
+        let spec = spec_from_value(v.clone()).unwrap();
+        assert_eq!(spec.scenario.probes[0].blade, Some(1));
+        assert_eq!(spec.scenario.probes[0].row, Some(2));
+        assert_eq!(spec.scenario.lobes, Some(3));
+        // A float field is untouched.
+        assert_eq!(spec.scenario.duration_s, 0.1);
+
+        v["scenario"]["probes"] = serde_json::json!([
+            {"blade": 0, "row": 0, "quantity": "gap"},
+            {"node": 1e20, "quantity": "displacement", "component": "y"}
+        ]);
+        let e = spec_from_value(v).unwrap_err();
+        let issues = e.issues();
+        assert_eq!(issues.len(), 1, "{e}");
+        assert_eq!(issues[0].path, "/scenario/probes/1/node", "{e}");
+        assert!(issues[0].reason.contains("expected usize"), "{e}");
     }
 }
