@@ -35,16 +35,9 @@ fn main() {
     for round in 0..rounds {
         for eta in [0, 1500, 6000] {
             let eta_opt = (eta > 0).then_some(eta);
-            let case = default_models_case(
-                &imp,
-                &cas,
-                KernelChoice::Fast,
-                true,
-                omega,
-                steps,
-                eta_opt,
-            )
-            .expect("case");
+            let case =
+                default_models_case(&imp, &cas, KernelChoice::Fast, true, omega, steps, eta_opt)
+                    .expect("case");
             let out = simulate(&case, &imp, &casing, None).expect("run");
             let s = &out.summary;
             let us = s.loop_seconds / s.n_steps as f64 * 1e6;

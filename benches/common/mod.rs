@@ -2,9 +2,9 @@
 //! (`time_step`, `stage_breakdown`): wall-clock µs per time step, single thread.
 #![allow(dead_code)] // each bench target uses part of this module
 
+use rubscan::dynamics::abradable::CoatingMaterial;
 use rubscan::dynamics::numerics::{KernelChoice, Numerics};
 use rubscan::dynamics::probes::StageSeconds;
-use rubscan::dynamics::abradable::CoatingMaterial;
 use rubscan::dynamics::scenario::{Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad};
 use rubscan::dynamics::simulate::{SimError, simulate};
 use rubscan::dynamics::structure::Structure;
