@@ -1,86 +1,74 @@
-//! Paper-scale cost of the coating stage per time step, by discretisation η of the coating
-//! (DESIGN.md §5): prints µs per step without coating, with η = 600 and η = 12000.
+//! Cost of the coating stage per time step (DESIGN.md §5, issue #25 "Coating cost"): the
+//! built-in impeller and casing at Ω = 3000 rad/s under the held two-lobe casing load of
+//! `common::bench_default_models` (the quickstart's rub), without coating and with the nominal
+//! 2 mm coating (every trailing-edge tip node then rubs in it all around) at η = 1500 and
+//! η = 6000 elements per row. The three runs alternate in one process, `BENCH_ROUNDS` times
+//! (default 3), and the best time of each is kept: coated / uncoated is measured on the same
+//! machine state. Also prints each coated run's wear (sum and maximum, m) and peak force at full
+//! precision, to compare the results of two builds. `BENCH_STEPS` (default 20000).
+//!
+//! `cargo bench --bench coating_cost`
 
-use rubscan::app::{casing_rom, impeller_rom};
-use rubscan::dynamics::abradable::CoatingMaterial;
-use rubscan::dynamics::numerics::Numerics;
-use rubscan::dynamics::scenario::{Case, CasingModel, CoatingCase, InitialVelocity};
+mod common;
+
+use common::default_models_case;
+use rubscan::dynamics::KernelChoice;
+use rubscan::dynamics::scenario::CasingModel;
 use rubscan::dynamics::simulate;
-use rubscan::dynamics::structure::Structure;
 use rubscan::model::build::{CasingSpec, ImpellerSpec};
+use std::collections::BTreeMap;
 
-/// Paper-scale cost of the coating stage: the built-in impeller and casing ROMs
-/// (`rubscan::app::{impeller_rom, casing_rom}`, default specs, cached), every tip node held
-/// inside a 2 mm nominal coating (continuous rubbing, no direct contact), η = 600 vs 12000.
-/// Run: `cargo bench --bench coating_cost`.
 fn main() {
     faer::set_global_parallelism(faer::Par::Seq);
-    let imp = impeller_rom(&ImpellerSpec::default()).unwrap();
-    let cas = casing_rom(&CasingSpec::default()).unwrap();
-    let omega = 1000.0;
-    let h = (0.5 * Structure::new(&imp, omega).unwrap().stability_limit())
-        .min(0.5 * Structure::new(&cas, 0.0).unwrap().stability_limit())
-        .min(1e-7);
-    let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap() + 1;
-    let casing = CasingModel::Flexible(cas);
-    let steps = 20000;
-    let mk = |eta: usize, offset: f64| Case {
-        omega,
-        duration: steps as f64 * h,
-        friction: 0.1,
-        load: None,
-        clearance_offset: vec![offset; rows],
-        casing_probes: vec![],
-        probes: vec![],
-        initial_velocity: InitialVelocity::default(),
-        numerics: Numerics {
-            time_step: h,
-            decimation: 10,
-            ..Default::default()
-        },
-        coating: (eta > 0).then(|| CoatingCase {
-            eta,
-            ..CoatingCase::new(CoatingMaterial::nominal())
-        }),
+    let env = |k: &str, d: usize| {
+        std::env::var(k)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(d)
     };
-    // Rest clearance of the closest tip node to the casing itself.
-    let mut probe = mk(0, 0.0);
-    probe.duration = 10.0 * h;
-    probe.numerics.decimation = 1;
-    let g0 = simulate(&probe, &imp, &casing, None).unwrap().min_gap[0];
-    let e = CoatingMaterial::nominal().thickness;
-    // Closest tips 0.5 e_abr deep in the coating.
-    let offset = g0 - 0.5 * e;
-    println!("h = {h:e} s, rest clearance {g0:e} m, offset {offset:e} m, {steps} steps");
-    let mut best = std::collections::BTreeMap::new();
-    for _round in 0..2 {
-        for eta in [0, 600, 12000] {
-            let out = simulate(&mk(eta, offset), &imp, &casing, None).unwrap();
-            let us = out.summary.loop_seconds / out.summary.n_steps as f64 * 1e6;
-            let entry = best.entry(eta).or_insert(f64::INFINITY);
-            *entry = entry.min(us);
-            if let Some(co) = &out.summary.coating {
-                println!(
-                    "η = {eta}: {us:.2} µs/step, coating steps {}, contact steps {}, peak force {:.3e} N, max wear {:.3e} m, steps/element {:.1}",
-                    co.coating_steps,
-                    out.summary.contact_steps,
-                    co.peak_force,
-                    co.max_wear_final,
-                    co.steps_per_element
-                );
-            } else {
-                println!(
-                    "no coating: {us:.2} µs/step, contact steps {}",
-                    out.summary.contact_steps
-                );
+    let (steps, rounds) = (env("BENCH_STEPS", 20000), env("BENCH_ROUNDS", 3));
+    let imp = rubscan::app::impeller_rom(&ImpellerSpec::default()).expect("impeller");
+    let cas = rubscan::app::casing_rom(&CasingSpec::default()).expect("casing");
+    let omega = 3000.0;
+    let casing = CasingModel::Flexible(cas.clone());
+    let mut best: BTreeMap<usize, f64> = BTreeMap::new();
+    for round in 0..rounds {
+        for eta in [0, 1500, 6000] {
+            let eta_opt = (eta > 0).then_some(eta);
+            let case =
+                default_models_case(&imp, &cas, KernelChoice::Fast, true, omega, steps, eta_opt)
+                    .expect("case");
+            let out = simulate(&case, &imp, &casing, None).expect("run");
+            let s = &out.summary;
+            let us = s.loop_seconds / s.n_steps as f64 * 1e6;
+            let b = best.entry(eta).or_insert(f64::INFINITY);
+            *b = b.min(us);
+            let contact = s.contact_steps as f64 / s.n_steps as f64;
+            match &s.coating {
+                Some(co) => {
+                    let sum: f64 = co.final_wear.iter().flatten().sum();
+                    println!(
+                        "round {round} η = {eta}: {us:.2} µs/step, contact steps {contact:.3}, \
+                         coating steps {}, wear sum {sum:e} m, max wear {:e} m, peak force {:e} N, \
+                         max blade radial {:e} m",
+                        co.coating_steps, co.max_wear_final, co.peak_force, s.max_blade_radial
+                    );
+                }
+                None => println!(
+                    "round {round} no coating: {us:.2} µs/step, contact steps {contact:.3}, \
+                     max blade radial {:e} m",
+                    s.max_blade_radial
+                ),
             }
         }
     }
+    let base = best[&0];
     println!(
-        "best of 2: no coating {:.2}, η=600 {:.2}, η=12000 {:.2} µs/step; 12000/600 = {:.3}",
-        best[&0],
-        best[&600],
-        best[&12000],
-        best[&12000] / best[&600]
+        "best of {rounds}, {steps} steps: no coating {base:.2} µs/step; η = 1500 {:.2} ({:.3}×); \
+         η = 6000 {:.2} ({:.3}×)",
+        best[&1500],
+        best[&1500] / base,
+        best[&6000],
+        best[&6000] / base
     );
 }

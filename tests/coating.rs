@@ -225,3 +225,45 @@ fn invalid_coating_cases_are_refused() {
     assert_eq!(cc, CoatingCase::new(half_mm()));
     assert_eq!(cc.eta, 6000);
 }
+
+/// The coating stage on the fast kernel (its coating correction fused with the next predictor,
+/// the casing's channels synthesised by the harmonic kernel) against the dense reference kernel
+/// (plain correction, full matrices): on the hybrid scenario of
+/// `localized_full_removal_hands_over_to_lagrange_contact` (coating forces, removal, Lagrange
+/// multipliers), the wear profiles, the peak coating force and the blade-force series agree to
+/// round-off accumulated over 40 000 steps.
+#[test]
+fn fast_and_dense_kernels_agree_on_a_coated_run() {
+    let thin = CoatingMaterial {
+        thickness: 0.15e-3,
+        ..CoatingMaterial::nominal()
+    };
+    let fast_case = case(thin, 6000, [1e-4, 0.0], 4e-3);
+    let mut dense_case = fast_case.clone();
+    dense_case.numerics.kernel = KernelChoice::DenseReference;
+    let (fast, dense) = (run(&fast_case), run(&dense_case));
+    let (cf, cd) = (
+        fast.summary.coating.as_ref().unwrap(),
+        dense.summary.coating.as_ref().unwrap(),
+    );
+    assert!(fast.summary.contact_steps > 10 && cf.coating_steps > 1000);
+    let wear_diff = cf
+        .final_wear
+        .iter()
+        .flatten()
+        .zip(cd.final_wear.iter().flatten())
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let force_scale = cd.peak_force;
+    let force_diff = (fast.coating_blade_force.iter().flatten())
+        .zip(dense.coating_blade_force.iter().flatten())
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    println!(
+        "max wear difference {wear_diff:e} m (e_abr {:e} m), peak force {:e} vs {:e} N, \
+         max coating force difference {force_diff:e} N, removed {:?} vs {:?}",
+        thin.thickness, cf.peak_force, cd.peak_force, cf.removed_elements, cd.removed_elements
+    );
+    assert!(wear_diff <= 1e-9 * thin.thickness, "{wear_diff:e}");
+    // Observed: 4e-10 of the peak force.
+    assert!(force_diff <= 1e-8 * force_scale, "{force_diff:e}");
+    assert_eq!(cf.removed_elements, cd.removed_elements);
+}

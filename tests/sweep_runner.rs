@@ -5,17 +5,19 @@ use common::table_without_timing;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::Duration;
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, UInt64Type};
 use arrow_array::{Array, RecordBatch};
 use arrow_schema::DataType;
+use rubscan::sweep::simulator::ModelSimulator;
 use rubscan::sweep::synthetic::SyntheticSimulator;
 use rubscan::sweep::table::{COLUMNS, read_results};
 use rubscan::sweep::{
-    Job, JobResult, JobSimulator, RunOptions, SweepSpec, merge, parse_spec, plan, run_sweep,
+    Job, JobResult, JobSimulator, JobSteps, RunOptions, SweepSpec, merge, parse_spec, plan,
+    run_sweep,
 };
 
 fn spec() -> SweepSpec {
@@ -378,4 +380,63 @@ fn shard_argument_parsing() {
     for bad in ["4/4", "1", "a/2", "0/0", "-1/2"] {
         assert!(parse_shard(bad).is_err(), "{bad}");
     }
+}
+
+/// Progress within a job (issue #25): the model simulator reports its time steps while a job
+/// runs, through the sample recorder, so that its own reports already reach the job's planned
+/// steps before the runner counts the finished job; the report does not change the job's
+/// result; and the run's step counter ends at the planned steps of the sweep. Built-in impeller
+/// in a rigid two-lobe casing, 1000 steps per job, two jobs on two threads.
+#[test]
+fn step_progress_reaches_the_planned_steps_of_a_small_sweep() {
+    let spec = parse_spec(
+        &serde_json::json!({
+            "name": "step_progress",
+            "models": {"impeller": {"builtin": {}}, "casing": {"rigid": {"lobes": 2, "amplitude_m": 1e-4}}},
+            "scenario": {"duration_s": 2e-4},
+            "numerics": {"time_step_s": 2e-7, "decimation": 10},
+            "grid": {"speed": {"unit": "rad_s", "values": [2000.0, 3000.0]}, "friction": [0.1]}
+        })
+        .to_string(),
+    )
+    .unwrap();
+    let p = plan(&spec).unwrap();
+    let per_job = p.steps_per_job.unwrap();
+    assert_eq!(per_job, 1000);
+    let sim = ModelSimulator::new(&spec).unwrap();
+    let cancel = AtomicBool::new(false);
+    let counter = AtomicU64::new(0);
+    let mut steps = JobSteps::new(per_job, Some(&counter), None);
+    let reported = sim.run_reporting(&p.jobs[0], &cancel, &mut steps).unwrap();
+    assert_eq!(steps.reported(), per_job, "reported by the job itself");
+    assert_eq!(counter.load(Ordering::SeqCst), per_job);
+    assert_eq!(reported, sim.run(&p.jobs[0], &cancel).unwrap());
+
+    let dir = tmp("step-progress");
+    let o = opts(&dir, 2);
+    let summary = run_sweep(&spec, &o, &sim).unwrap();
+    assert_eq!((summary.ran, summary.ok), (2, 2));
+    assert_eq!(o.steps_done.load(Ordering::SeqCst), 2 * per_job);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A simulator without step reports (the synthetic one) still brings the step counter to the
+/// planned steps of the jobs it ran, failed jobs included, when each job is recorded.
+#[test]
+fn step_counter_counts_finished_jobs_without_reports() {
+    let spec = spec();
+    let p = plan(&spec).unwrap();
+    let dir = tmp("step-counter");
+    let o = opts(&dir, 2);
+    let sim = SyntheticSimulator {
+        fail_above_speed_rad_s: Some(1000.0),
+        ..SyntheticSimulator::default()
+    };
+    let summary = run_sweep(&spec, &o, &sim).unwrap();
+    assert!(summary.failed > 0 && summary.ok > 0);
+    assert_eq!(
+        o.steps_done.load(Ordering::SeqCst),
+        p.steps_per_job.unwrap() * p.jobs.len() as u64
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,9 +2,10 @@
 //! (`time_step`, `stage_breakdown`): wall-clock µs per time step, single thread.
 #![allow(dead_code)] // each bench target uses part of this module
 
+use rubscan::dynamics::abradable::CoatingMaterial;
 use rubscan::dynamics::numerics::{KernelChoice, Numerics};
 use rubscan::dynamics::probes::StageSeconds;
-use rubscan::dynamics::scenario::{Case, CasingModel, InitialVelocity, LobeLoad};
+use rubscan::dynamics::scenario::{Case, CasingModel, CoatingCase, InitialVelocity, LobeLoad};
 use rubscan::dynamics::simulate::{SimError, simulate};
 use rubscan::dynamics::structure::Structure;
 use rubscan::fixtures::{SyntheticSpec, synthetic_rom};
@@ -91,11 +92,22 @@ pub fn bench_case(
     load: Option<LobeLoad>,
     steps: usize,
 ) -> Result<BenchResult, SimError> {
-    let h = numerics.time_step;
-    let casing = CasingModel::Flexible(casing.clone());
-    let case = Case {
+    let case = coated_case(omega, numerics, offs, load, None, steps);
+    bench_run(impeller, casing, &case)
+}
+
+/// The case of [`bench_case`] with a coating: μ = 0.1, `steps` steps of `numerics.time_step`.
+pub fn coated_case(
+    omega: f64,
+    numerics: Numerics,
+    offs: Vec<f64>,
+    load: Option<LobeLoad>,
+    coating: Option<CoatingCase>,
+    steps: usize,
+) -> Case {
+    Case {
         omega,
-        duration: steps as f64 * h,
+        duration: steps as f64 * numerics.time_step,
         friction: 0.1,
         load,
         clearance_offset: offs,
@@ -103,9 +115,18 @@ pub fn bench_case(
         probes: vec![],
         initial_velocity: InitialVelocity::default(),
         numerics,
-        coating: None,
-    };
-    let out = simulate(&case, impeller, &casing, None)?;
+        coating,
+    }
+}
+
+/// Times `case` for `impeller` in the flexible `casing`.
+pub fn bench_run(
+    impeller: &CyclicRom,
+    casing: &CyclicRom,
+    case: &Case,
+) -> Result<BenchResult, SimError> {
+    let casing = CasingModel::Flexible(casing.clone());
+    let out = simulate(case, impeller, &casing, None)?;
     let nodes = (impeller.n_sectors * impeller.n_contact()) as f64;
     let in_contact =
         out.summary.active_contacts as f64 / (out.summary.n_steps.max(1) as f64 * nodes);
@@ -191,24 +212,59 @@ pub fn bench_default_models(
     omega: f64,
     steps: usize,
 ) -> anyhow::Result<BenchResult> {
+    bench_default_models_coated(kernel, contact, omega, steps, None)
+}
+
+/// [`bench_default_models`] with the nominal coating ([`CoatingMaterial::nominal`], 2 mm
+/// thick: every trailing-edge tip node of the built-in models is in it all around) of `eta`
+/// elements per row, or without coating (`None`).
+pub fn bench_default_models_coated(
+    kernel: KernelChoice,
+    contact: bool,
+    omega: f64,
+    steps: usize,
+    eta: Option<usize>,
+) -> anyhow::Result<BenchResult> {
     use rubscan::model::build::{CasingSpec, ImpellerSpec};
     let imp = rubscan::app::impeller_rom(&ImpellerSpec::default())?;
     let cas = rubscan::app::casing_rom(&CasingSpec::default())?;
+    let case = default_models_case(&imp, &cas, kernel, contact, omega, steps, eta)?;
+    Ok(bench_run(&imp, &cas, &case)?)
+}
+
+/// The case of [`bench_default_models_coated`] for the built-in models `imp`, `cas`.
+pub fn default_models_case(
+    imp: &CyclicRom,
+    cas: &CyclicRom,
+    kernel: KernelChoice,
+    contact: bool,
+    omega: f64,
+    steps: usize,
+    eta: Option<usize>,
+) -> Result<Case, SimError> {
     let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap_or(0) + 1;
-    let h = bench_step(&imp, &cas, omega)?;
+    let h = bench_step(imp, cas, omega)?;
     let load = contact.then(|| LobeLoad {
         lobes: 2,
-        static_displacement: BENCH_LOBE_DEPTH * radial_clearance(&imp, &cas, rows / 2).max(0.0),
+        static_displacement: BENCH_LOBE_DEPTH * radial_clearance(imp, cas, rows / 2).max(0.0),
         ramp_time: 20.0 * h,
         hold_time: f64::INFINITY,
     });
-    Ok(bench_with_offsets(
-        &imp,
-        &cas,
-        omega,
+    let coating = eta.map(|eta| CoatingCase {
+        eta,
+        ..CoatingCase::new(CoatingMaterial::nominal())
+    });
+    let numerics = Numerics {
+        time_step: h,
         kernel,
+        ..Default::default()
+    };
+    Ok(coated_case(
+        omega,
+        numerics,
         vec![0.0; rows],
         load,
+        coating,
         steps,
-    )?)
+    ))
 }

@@ -1166,9 +1166,17 @@ impl<'a> Simulation<'a> {
         if !any {
             return Ok(());
         }
-        self.blades.kernel.get_mut().correct(&cs.fi);
+        // Fused with the next predictors, as the Lagrange correction is (box 5): most coating
+        // steps have no Lagrange contact, and their next `predict` then only swaps in the
+        // predictor formed here. A Lagrange correction that follows forms it again from the
+        // fully corrected state (`correct_then_predict` may be repeated before `advance`).
+        let next_load = self.case.load_factor(self.t1);
+        self.blades
+            .kernel
+            .get_mut()
+            .correct_then_predict(&cs.fi, 0.0);
         if let Some(f) = side.flexible.as_mut() {
-            f.kernel.get_mut().correct(&cs.fc);
+            f.kernel.get_mut().correct_then_predict(&cs.fc, next_load);
         }
         side.refresh()?;
         self.blades.place(&self.r_om);
@@ -2218,6 +2226,11 @@ impl CoatingStage {
         let e_abr = self.layer.material().thickness;
         let mut any = false;
         for (node, p) in proj.iter().enumerate() {
+            // Beyond the unworn surface (or a stale projection, provably beyond the projector's
+            // margin e_abr): no element to look up.
+            if p.gap >= e_abr {
+                continue;
+            }
             let (s, j) = (node / fr.nci, node % fr.nci);
             let row = self.row_of[j];
             let theta = p.point.y.atan2(p.point.x);
@@ -2239,14 +2252,15 @@ impl CoatingStage {
                 self.fc.iter_mut().for_each(|x| *x = 0.0);
                 any = true;
             }
-            // Relative increment of the node w.r.t. the casing material point (eq. 15).
-            let mut inc = gam[node] - gam_prev[node];
-            if fr.casing.is_some() {
-                inc -= fr
-                    .past
-                    .increment(fr.spline, fr.q, node, &p.param, fr.lazy)?;
-            }
             let t = if self.mu > 0.0 {
+                // Relative increment of the node w.r.t. the casing material point (eq. 15):
+                // only friction reads it.
+                let mut inc = gam[node] - gam_prev[node];
+                if fr.casing.is_some() {
+                    inc -= fr
+                        .past
+                        .increment(fr.spline, fr.q, node, &p.param, fr.lazy)?;
+                }
                 friction_direction(&p.normal, &inc)
             } else {
                 None

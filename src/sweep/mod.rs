@@ -25,7 +25,7 @@ pub mod synthetic;
 pub mod table;
 pub mod validate;
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use serde::{Deserialize, Serialize};
 
@@ -47,6 +47,78 @@ pub trait JobSimulator: Sync {
     /// early with any `Err`: a job that returns while `cancel` is set is not recorded
     /// and will run again on resume.
     fn run(&self, job: &Job, cancel: &AtomicBool) -> Result<JobResult, String>;
+
+    /// [`JobSimulator::run`], reporting the time steps done as the job goes through `steps`
+    /// (the runner's progress within a job). The default reports nothing: the runner counts
+    /// the job's steps when it finishes. Reporting must not change the job's result.
+    fn run_reporting(
+        &self,
+        job: &Job,
+        cancel: &AtomicBool,
+        steps: &mut JobSteps<'_>,
+    ) -> Result<JobResult, String> {
+        let _ = steps;
+        self.run(job, cancel)
+    }
+}
+
+/// The time steps one job has done, added as they are reported to the run's shared counter
+/// (and its progress bar): the progress of a long job shows before it finishes, and the
+/// bar's ETA comes from the steps done. Reports past the job's planned total are capped, so the
+/// counter of a run reaches exactly the planned steps of its finished jobs.
+#[derive(Debug)]
+pub struct JobSteps<'a> {
+    total: u64,
+    reported: u64,
+    counter: Option<&'a AtomicU64>,
+    bar: Option<&'a indicatif::ProgressBar>,
+}
+
+impl<'a> JobSteps<'a> {
+    /// A job of `total` planned steps reporting to `counter` and, when drawn, `bar`.
+    pub fn new(
+        total: u64,
+        counter: Option<&'a AtomicU64>,
+        bar: Option<&'a indicatif::ProgressBar>,
+    ) -> Self {
+        JobSteps {
+            total,
+            reported: 0,
+            counter,
+            bar,
+        }
+    }
+
+    /// A job of `total` steps whose reports go nowhere (a job run outside a sweep).
+    pub fn detached(total: u64) -> Self {
+        Self::new(total, None, None)
+    }
+
+    /// The job has done `steps` time steps (capped at its total; never goes back).
+    pub fn advance_to(&mut self, steps: u64) {
+        let steps = steps.min(self.total);
+        if steps <= self.reported {
+            return;
+        }
+        let delta = steps - self.reported;
+        self.reported = steps;
+        if let Some(c) = self.counter {
+            c.fetch_add(delta, Ordering::Relaxed);
+        }
+        if let Some(b) = self.bar {
+            b.inc(delta);
+        }
+    }
+
+    /// The job is finished (ok or failed): all its planned steps count as done.
+    pub fn finish(&mut self) {
+        self.advance_to(self.total);
+    }
+
+    /// Steps reported so far.
+    pub fn reported(&self) -> u64 {
+        self.reported
+    }
 }
 
 /// Maxima over the simulated time of one job.

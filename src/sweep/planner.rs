@@ -248,7 +248,9 @@ pub fn plan(spec: &SweepSpec) -> Result<Plan, SpecError> {
             context: Arc::clone(&context),
         });
     }
-    let steps_per_job = Some((spec.scenario.duration_s / spec.numerics.time_step).ceil() as u64);
+    // Rounded as the simulation counts its steps (`Simulation::new`): 2e-4 s / 2e-7 s is
+    // 1000.0000000000001, 1000 steps, not 1001.
+    let steps_per_job = Some((spec.scenario.duration_s / spec.numerics.time_step).round() as u64);
     Ok(Plan {
         total_steps: steps_per_job.map(|s| s.saturating_mul(n_jobs as u64)),
         steps_per_job,

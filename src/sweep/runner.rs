@@ -9,7 +9,7 @@
 //! ```
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
@@ -21,7 +21,7 @@ use super::checkpoint::{JobRecord, read_record, write_json_atomic, write_record}
 use super::planner::{Job, Plan, plan};
 use super::spec::SweepSpec;
 use super::table::write_results;
-use super::{JobSimulator, checkpoint};
+use super::{JobSimulator, JobSteps, checkpoint};
 use crate::io::content_hash::canonical_json;
 
 /// Options of [`run_sweep`].
@@ -40,6 +40,10 @@ pub struct RunOptions {
     /// Set to stop cleanly: no new job starts, jobs in flight are not recorded unless they
     /// complete, results and manifest are written for what is finished.
     pub cancel: Arc<AtomicBool>,
+    /// Time steps done by the jobs this run runs, counted while they run (capped at each job's
+    /// planned steps, topped up when a job finishes ok or failed): after a run that was not
+    /// cancelled it holds the planned steps of every job it ran. The progress bar shows it.
+    pub steps_done: Arc<AtomicU64>,
 }
 
 impl RunOptions {
@@ -52,6 +56,7 @@ impl RunOptions {
             progress: false,
             retry_failed: false,
             cancel: Arc::new(AtomicBool::new(false)),
+            steps_done: Arc::new(AtomicU64::new(0)),
         }
     }
 }
@@ -153,13 +158,23 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
-/// Runs one job, converting panics and non-finite results into failures.
+/// Runs one job, converting panics and non-finite results into failures; the job reports its
+/// steps through `steps`, all of which count as done once it is recorded.
 /// `None` = cancelled while running (not to be recorded).
-fn execute(job: &Job, sim: &dyn JobSimulator, cancel: &AtomicBool) -> Option<JobRecord> {
+fn execute(
+    job: &Job,
+    sim: &dyn JobSimulator,
+    cancel: &AtomicBool,
+    steps: &mut JobSteps<'_>,
+) -> Option<JobRecord> {
     let t0 = Instant::now();
-    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| sim.run(job, cancel)))
+    let run = std::panic::AssertUnwindSafe(|| sim.run_reporting(job, cancel, &mut *steps));
+    let outcome = std::panic::catch_unwind(run)
         .unwrap_or_else(|p| Err(format!("simulator panicked: {}", panic_message(p.as_ref()))));
     let wall = t0.elapsed().as_secs_f64();
+    if !(outcome.is_err() && cancel.load(Ordering::SeqCst)) {
+        steps.finish();
+    }
     match outcome {
         Err(_) if cancel.load(Ordering::SeqCst) => None,
         Err(reason) => Some(JobRecord::new(job, Err(reason), wall)),
@@ -170,29 +185,51 @@ fn execute(job: &Job, sim: &dyn JobSimulator, cancel: &AtomicBool) -> Option<Job
     }
 }
 
-/// Reporter: indicatif bar or plain stderr lines.
+/// Reporter: indicatif bar or plain stderr lines. The bar counts time steps when the plan
+/// knows the steps per job (it then advances within a job, and its ETA comes from the steps
+/// done), else jobs.
 struct Reporter {
     bar: Option<indicatif::ProgressBar>,
+    /// Steps per job when the bar counts steps.
+    steps_per_job: Option<u64>,
     total: usize,
     done: AtomicUsize,
 }
 
 impl Reporter {
-    fn new(total: usize, progress: bool) -> Self {
+    fn new(total: usize, progress: bool, steps_per_job: Option<u64>) -> Self {
+        let steps_per_job = steps_per_job.filter(|&n| n > 0);
         let bar = progress.then(|| {
-            let pb = indicatif::ProgressBar::new(total as u64);
-            if let Ok(style) = indicatif::ProgressStyle::with_template(
-                "{elapsed_precise} [{wide_bar}] {pos}/{len} jobs, ETA {eta} {msg}",
-            ) {
+            let (len, template) = match steps_per_job {
+                Some(n) => (
+                    n.saturating_mul(total as u64),
+                    "{elapsed_precise} [{wide_bar}] {percent}% of {human_len} steps, ETA {eta} · \
+                     {prefix} jobs {msg}",
+                ),
+                None => (
+                    total as u64,
+                    "{elapsed_precise} [{wide_bar}] {pos}/{len} jobs, ETA {eta} {msg}",
+                ),
+            };
+            let pb = indicatif::ProgressBar::new(len);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
                 pb.set_style(style);
             }
+            pb.set_prefix(format!("0/{total}"));
             pb
         });
         Reporter {
             bar,
+            steps_per_job,
             total,
             done: AtomicUsize::new(0),
         }
+    }
+
+    /// The step counter of one job (steps per job 0 when the plan does not know them).
+    fn job_steps<'a>(&'a self, counter: &'a AtomicU64) -> JobSteps<'a> {
+        let bar = self.bar.as_ref().filter(|_| self.steps_per_job.is_some());
+        JobSteps::new(self.steps_per_job.unwrap_or(0), Some(counter), bar)
     }
 
     fn log(&self, line: &str) {
@@ -218,7 +255,11 @@ impl Reporter {
                     b.println(format!("[sweep] {msg}"));
                 }
                 b.set_message(msg);
-                b.inc(1);
+                if self.steps_per_job.is_some() {
+                    b.set_prefix(format!("{n}/{}", self.total));
+                } else {
+                    b.inc(1);
+                }
             }
             None => eprintln!("[sweep] {n}/{} {msg}", self.total),
         }
@@ -333,7 +374,7 @@ pub fn run_sweep(
     early.unfinished = early.unfinished.max(pending.len());
     ctx.write(out, &early)?;
 
-    let reporter = Reporter::new(pending.len(), opts.progress);
+    let reporter = Reporter::new(pending.len(), opts.progress, plan.steps_per_job);
     if skipped > 0 {
         reporter.log(&format!(
             "[sweep] resuming: {skipped} of {} jobs already finished",
@@ -354,7 +395,8 @@ pub fn run_sweep(
             if cancel.load(Ordering::SeqCst) {
                 return;
             }
-            let Some(rec) = execute(job, sim, cancel) else {
+            let mut steps = reporter.job_steps(&opts.steps_done);
+            let Some(rec) = execute(job, sim, cancel, &mut steps) else {
                 return;
             };
             if let Err(e) = write_record(out, &rec) {

@@ -22,7 +22,7 @@ use crate::sweep::aggregate::JobAggregator;
 use crate::sweep::planner::{CoatingParams, CoatingValue, Job};
 use crate::sweep::spec::{Scenario, SweepSpec};
 use crate::sweep::validate::{self, ResolvedCasing, ResolvedSweep};
-use crate::sweep::{CriticalSpeed, JobResult, JobSimulator};
+use crate::sweep::{CriticalSpeed, JobResult, JobSimulator, JobSteps};
 
 /// Applies one grid coating value to a nominal one.
 fn resolve(nominal: f64, value: Option<CoatingValue>) -> f64 {
@@ -376,8 +376,32 @@ fn rigid_criticals(
     .collect())
 }
 
+/// A recorder reporting the time steps done at each sample to a job's step counter: the
+/// progress within a long job. It reads the sample's time only (one atomic add per sample).
+struct StepReporter<'s, 'a> {
+    steps: &'s mut JobSteps<'a>,
+    time_step: f64,
+}
+
+impl Recorder for StepReporter<'_, '_> {
+    fn record(&mut self, sample: &Sample<'_>) -> Result<(), RecordError> {
+        self.steps
+            .advance_to((sample.time / self.time_step).round() as u64);
+        Ok(())
+    }
+}
+
 impl JobSimulator for ModelSimulator {
     fn run(&self, job: &Job, cancel: &AtomicBool) -> Result<JobResult, String> {
+        self.run_reporting(job, cancel, &mut JobSteps::detached(0))
+    }
+
+    fn run_reporting(
+        &self,
+        job: &Job,
+        cancel: &AtomicBool,
+        steps: &mut JobSteps<'_>,
+    ) -> Result<JobResult, String> {
         let (case, casing, extras) = self.case_for_job(job).map_err(|e| format!("{e:#}"))?;
         let window_start = steady_window_start(&case, extras.steady_fraction.unwrap_or(0.5));
         let mut rows = JobAggregator::new(
@@ -388,7 +412,14 @@ impl JobSimulator for ModelSimulator {
         let simulation =
             Simulation::new(&case, &self.impeller, &casing).map_err(|e| e.to_string())?;
         // The clock starts with the time loop: building the case is not the job's run.
-        let mut limited = (WallClockLimit::new(self.job_time_limit_s), &mut rows);
+        let reporter = StepReporter {
+            steps,
+            time_step: case.numerics.time_step,
+        };
+        let mut limited = (
+            (WallClockLimit::new(self.job_time_limit_s), reporter),
+            &mut rows,
+        );
         let summary = match &self.timeseries_dir {
             None => simulation.run(&mut limited, Some(cancel)),
             Some(dir) => {
