@@ -567,6 +567,36 @@ fn set_casing_load(
     Ok(())
 }
 
+/// The abradable coating's stage of a case (Fig. 11), checked against the casing kind, the
+/// boundary model and its explicit stability; `None` without a coating.
+fn coating_stage(
+    case: &Case,
+    impeller: &CyclicRom,
+    blades: &mut Blades,
+    casing: &mut Casing,
+    steps_per_revolution: f64,
+) -> Result<Option<CoatingStage>, SimError> {
+    Ok(match (&case.coating, casing.surface_mut()) {
+        (Some(_), _) if case.numerics.boundary == Boundary::Massless => {
+            return Err(SimError::InvalidCase(
+                "an abradable coating with a massless boundary is not supported yet".into(),
+            ));
+        }
+        (Some(cc), Some(side)) => {
+            let mut cs = CoatingStage::new(cc, impeller, blades, case.friction, side)?;
+            cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;
+            cs.check_stability(blades, side.flexible.as_mut())?;
+            Some(cs)
+        }
+        (Some(_), None) => {
+            return Err(SimError::InvalidCase(
+                "an abradable coating needs a casing surface (not an imposed-gap casing)".into(),
+            ));
+        }
+        (None, _) => None,
+    })
+}
+
 /// Checks the case's scalars and the explicit stability limit `h < 2/ω_max` of both
 /// structures. Returns the limit (s) and the steps per revolution.
 fn check_stability(
@@ -838,6 +868,74 @@ struct ContactProblem {
     force_t: Vec<f64>,
 }
 
+impl ContactProblem {
+    /// Buffers for every blade-tip node as a candidate, sized once (no allocation per step).
+    fn new(blades: &Blades, casing: &Casing) -> Self {
+        let nn = blades.n_blades * blades.n_contact;
+        let (ncs, rows) = casing
+            .surface()
+            .map_or((0, 0), |cs| (cs.n_sectors, cs.rows));
+        let nbc = 3 * rows;
+        ContactProblem {
+            cands: Vec::with_capacity(nn),
+            w: vec![0.0; nn * nn],
+            d: vec![0.0; nn],
+            lambda: vec![0.0; nn],
+            active: Vec::with_capacity(nn),
+            lu: Vec::with_capacity(nn * nn),
+            rhs: Vec::with_capacity(nn),
+            vblk: vec![
+                Matrix3::zeros();
+                if casing.flexible().is_some() {
+                    nn * nn
+                } else {
+                    0
+                }
+            ],
+            vhat: vec![None; nn * nn],
+            blocks_taken: vec![false; nn],
+            translation_rate: vec![0.0; nn],
+            phat: vec![
+                SurfaceParam {
+                    i: 0,
+                    j: 0,
+                    u: 0.0,
+                    v: 0.0
+                };
+                nn
+            ],
+            fi: vec![0.0; blades.n_blades * blades.nb],
+            fc: vec![0.0; ncs * nbc],
+            wu: vec![0.0; ncs],
+            wv: vec![0.0; rows],
+            loads: Vec::with_capacity(nn),
+            touched: vec![None; nn],
+            force_n: vec![0.0; blades.n_blades],
+            force_t: vec![0.0; blades.n_blades],
+        }
+    }
+
+    /// The multipliers of eq. (18) for the first `nk` candidates, gaps `d` and matrix `w`,
+    /// the active set iterated to the gap tolerance `tol` (m); time `time` (s) for the error.
+    fn solve_multipliers(&mut self, tol: f64, time: f64) -> Result<(), SimError> {
+        let nk = self.cands.len();
+        let solved = active_set_solve(
+            nk,
+            &self.w[..nk * nk],
+            &self.d[..nk],
+            tol,
+            &mut self.lambda,
+            &mut self.active,
+            &mut self.lu,
+            &mut self.rhs,
+        );
+        solved.map(drop).map_err(|e| SimError::Diverged {
+            time,
+            reason: e.to_string(),
+        })
+    }
+}
+
 /// One simulation of a case (paper Fig. 4), stepped by [`Simulation::step`].
 pub struct Simulation<'a> {
     case: &'a Case,
@@ -912,26 +1010,13 @@ impl<'a> Simulation<'a> {
         set_casing_load(case, st_c.as_ref(), &mut casing)?;
         set_initial_velocities(case, &st_i, st_c.as_ref(), &mut blades, &mut casing)?;
         let nn = blades.n_blades * blades.n_contact;
-        let coating = match (&case.coating, casing.surface_mut()) {
-            (Some(_), _) if boundary == Boundary::Massless => {
-                return Err(SimError::InvalidCase(
-                    "an abradable coating with a massless boundary is not supported yet".into(),
-                ));
-            }
-            (Some(cc), Some(side)) => {
-                let mut cs = CoatingStage::new(cc, impeller, &blades, case.friction, side)?;
-                cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;
-                cs.check_stability(&mut blades, side.flexible.as_mut())?;
-                Some(cs)
-            }
-            (Some(_), None) => {
-                return Err(SimError::InvalidCase(
-                    "an abradable coating needs a casing surface (not an imposed-gap casing)"
-                        .into(),
-                ));
-            }
-            (None, _) => None,
-        };
+        let coating = coating_stage(
+            case,
+            impeller,
+            &mut blades,
+            &mut casing,
+            steps_per_revolution,
+        )?;
         if let Some(side) = casing.surface_mut() {
             side.past.touched = vec![None; nn];
             side.fold_spline()?;
@@ -945,47 +1030,7 @@ impl<'a> Simulation<'a> {
             res_proj: vec![Projection::default(); 1],
             res_warm: vec![None; 1],
         };
-        let (ncs, rows) = casing
-            .surface()
-            .map_or((0, 0), |cs| (cs.n_sectors, cs.rows));
-        let nbc = 3 * rows;
-        let contact = ContactProblem {
-            cands: Vec::with_capacity(nn),
-            w: vec![0.0; nn * nn],
-            d: vec![0.0; nn],
-            lambda: vec![0.0; nn],
-            active: Vec::with_capacity(nn),
-            lu: Vec::with_capacity(nn * nn),
-            rhs: Vec::with_capacity(nn),
-            vblk: vec![
-                Matrix3::zeros();
-                if casing.flexible().is_some() {
-                    nn * nn
-                } else {
-                    0
-                }
-            ],
-            vhat: vec![None; nn * nn],
-            blocks_taken: vec![false; nn],
-            translation_rate: vec![0.0; nn],
-            phat: vec![
-                SurfaceParam {
-                    i: 0,
-                    j: 0,
-                    u: 0.0,
-                    v: 0.0
-                };
-                nn
-            ],
-            fi: vec![0.0; blades.n_blades * blades.nb],
-            fc: vec![0.0; ncs * nbc],
-            wu: vec![0.0; ncs],
-            wv: vec![0.0; rows],
-            loads: Vec::with_capacity(nn),
-            touched: vec![None; nn],
-            force_n: vec![0.0; blades.n_blades],
-            force_t: vec![0.0; blades.n_blades],
-        };
+        let contact = ContactProblem::new(&blades, &casing);
         let n_blades = blades.n_blades;
         let n_nd = st_i.blocks.len();
         let recovery = probes
@@ -1327,20 +1372,7 @@ impl<'a> Simulation<'a> {
         {
             casing_w(f, &cs.spline, c, nk)?;
         }
-        let solved = active_set_solve(
-            nk,
-            &c.w[..nk * nk],
-            &c.d[..nk],
-            self.casing.gap_tolerance(),
-            &mut c.lambda,
-            &mut c.active,
-            &mut c.lu,
-            &mut c.rhs,
-        );
-        solved.map_err(|e| SimError::Diverged {
-            time: self.t1,
-            reason: e.to_string(),
-        })?;
+        c.solve_multipliers(self.casing.gap_tolerance(), self.t1)?;
         self.clock.lap(Stage::ContactSolve);
         Ok(())
     }
@@ -1385,20 +1417,7 @@ impl<'a> Simulation<'a> {
                 let wl: f64 = (0..nk).map(|l| c.w[k * nk + l] * c.lambda[l]).sum();
                 c.d[k] -= wl;
             }
-            let solved = active_set_solve(
-                nk,
-                &c.w[..nk * nk],
-                &c.d[..nk],
-                tol,
-                &mut c.lambda,
-                &mut c.active,
-                &mut c.lu,
-                &mut c.rhs,
-            );
-            solved.map_err(|e| SimError::Diverged {
-                time: self.t1,
-                reason: e.to_string(),
-            })?;
+            c.solve_multipliers(tol, self.t1)?;
         }
         self.clock.lap(Stage::ContactSolve);
         Ok(())
