@@ -51,7 +51,7 @@ fn main() -> anyhow::Result<()> {
                 hold_time: f64::INFINITY,
             };
             let numerics = Numerics {
-                time_step: h,
+                time_step: Some(h),
                 boundary,
                 ..Default::default()
             };

@@ -12,6 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, anyhow};
 
+use crate::dynamics::simulate::default_time_step;
 use crate::dynamics::{Boundary, SimError, Simulation};
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
@@ -140,16 +141,18 @@ pub(crate) fn describe_rom(rom: &CyclicRom) -> String {
         if let Ok(st) = Structure::new(rom, omega) {
             let _ = writeln!(
                 s,
-                "Ω = {omega:.1} rad/s: highest ROM frequency {:.4e} rad/s, explicit stability limit h < 2/ω_max = {:.4e} s",
+                "Ω = {omega:.1} rad/s: highest ROM frequency {:.4e} rad/s, explicit stability limit h < 2/ω_max = {:.4e} s, default step {:.4e} s",
                 st.omega_max,
-                st.stability_limit()
+                st.stability_limit(),
+                default_time_step(&st, None, omega)
             );
             let massless = st.with_boundary(Boundary::Massless);
             let _ = writeln!(
                 s,
-                "  massless boundary: highest retained frequency {:.4e} rad/s, explicit stability limit {:.4e} s",
+                "  massless boundary: highest retained frequency {:.4e} rad/s, explicit stability limit {:.4e} s, default step {:.4e} s",
                 massless.omega_max,
-                massless.stability_limit()
+                massless.stability_limit(),
+                default_time_step(&massless, None, omega)
             );
         }
     }

@@ -46,7 +46,7 @@ fn case(material: CoatingMaterial, eta: usize, clearance: [f64; 2], duration: f6
         probes: vec![],
         initial_velocity: InitialVelocity::default(),
         numerics: Numerics {
-            time_step: 1e-7,
+            time_step: Some(1e-7),
             kernel: KernelChoice::Fast,
             decimation: 20,
             ..Default::default()

@@ -1,18 +1,20 @@
 //! The massless boundary gives the paper formulation's answer on the built-in paper-scale
-//! models (#24), and the contact correction leaves no penetration there (#23): the quickstart's two-lobe case at Ω = 3000 rad/s, μ = 0.15, the paper's
-//! h = 1e-7 s against the massless boundary at half its own stability limit (about 7× the
-//! step). Shortened to 8 ms (the load ramps over 4 ms, then is released).
+//! models (#24), and the contact correction leaves no penetration there (#23): the
+//! quickstart's two-lobe case at Ω = 3000 rad/s, μ = 0.15, the paper's h = 1e-7 s against
+//! the massless boundary at its default step (10 steps per period of the highest dynamic
+//! mode, at least 1000 per revolution), with every retained mode and with a 50 kHz mode
+//! cutoff. Shortened to 8 ms (the load ramps over 4 ms, then is released).
 
 use rubscan::analysis::spectra::SpectrumAnalyzer;
 use rubscan::dynamics::numerics::Boundary;
 use rubscan::dynamics::scenario::{InitialVelocity, LobeLoad};
-use rubscan::dynamics::structure::Structure;
 use rubscan::model::build::{CasingSpec, ImpellerSpec};
 use rubscan::{Case, CasingModel, Numerics, SimulationOutput, casing_rom, impeller_rom, simulate};
 
 const OMEGA: f64 = 3000.0;
 
-fn run(boundary: Boundary, h: f64) -> SimulationOutput {
+/// The case at step `h` (the default step when `None`), with an optional mode cutoff (Hz).
+fn run(boundary: Boundary, h: Option<f64>, cutoff: Option<f64>) -> SimulationOutput {
     let imp = impeller_rom(&ImpellerSpec::default()).unwrap();
     let cas = casing_rom(&CasingSpec::default()).unwrap();
     let case = Case {
@@ -31,9 +33,10 @@ fn run(boundary: Boundary, h: f64) -> SimulationOutput {
         initial_velocity: InitialVelocity::default(),
         numerics: Numerics {
             time_step: h,
-            // About one sample per 2e-6 s in both runs.
-            decimation: (2e-6 / h).round().max(1.0) as usize,
+            // About one sample per 2e-6 s in every run (the default steps are near it).
+            decimation: h.map_or(1, |h| (2e-6 / h).round().max(1.0) as usize),
             boundary,
+            mode_cutoff_hz: cutoff,
             ..Default::default()
         },
         coating: None,
@@ -60,45 +63,92 @@ fn dominant_frequency(out: &SimulationOutput) -> (f64, f64) {
     (k as f64 * df, df)
 }
 
-#[test]
-fn massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models() {
-    let imp = impeller_rom(&ImpellerSpec::default()).unwrap();
-    let cas = casing_rom(&CasingSpec::default()).unwrap();
-    let limit = |rom, omega| {
-        Structure::new(rom, omega)
-            .unwrap()
-            .with_boundary(Boundary::Massless)
-            .stability_limit()
-    };
-    let h = 0.5 * limit(&imp, OMEGA).min(limit(&cas, 0.0));
-    let mass = run(Boundary::Mass, 1e-7);
-    let massless = run(Boundary::Massless, h);
+/// Relative difference of `a` to the reference `b`.
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b
+}
+
+/// Checks `massless` against the paper formulation's `mass` run: peak blade and casing
+/// amplitudes within 5 %, the same dominant frequency, residual ≤ 1e-8 of the level.
+fn assert_same_answer(label: &str, mass: &SimulationOutput, massless: &SimulationOutput) {
     assert!(mass.summary.contact_steps > 0 && massless.summary.contact_steps > 0);
-    let rel = |a: f64, b: f64| (a - b).abs() / b;
     let (te, te_ml) = (peak(&mass.blade_te_radial), peak(&massless.blade_te_radial));
     let (cas_m, cas_ml) = (peak(&mass.casing_radial), peak(&massless.casing_radial));
-    let ((f, df), (f_ml, _)) = (dominant_frequency(&mass), dominant_frequency(&massless));
+    let ((f, df), (f_ml, _)) = (dominant_frequency(mass), dominant_frequency(massless));
     eprintln!(
-        "mass h = 1e-7 s / massless h = {h:.3e} s: blade TE peak {te:.4e} / {te_ml:.4e} m, \
-         casing peak {cas_m:.4e} / {cas_ml:.4e} m, dominant {f:.0} / {f_ml:.0} Hz (bin {df:.0} Hz), \
-         residual {:.2e} / {:.2e} m, loop {:.2} / {:.2} s",
+        "mass h = 1e-7 s / {label} h = {:.3e} s: blade TE peak {te:.4e} / {te_ml:.4e} m \
+         ({:+.1} %), casing peak {cas_m:.4e} / {cas_ml:.4e} m ({:+.1} %), dominant {f:.0} / \
+         {f_ml:.0} Hz (bin {df:.0} Hz), residual {:.2e} / {:.2e} m, loop {:.2} / {:.2} s",
+        massless.summary.time_step,
+        100.0 * (te_ml - te) / te,
+        100.0 * (cas_ml - cas_m) / cas_m,
         mass.summary.max_residual_penetration,
         massless.summary.max_residual_penetration,
         mass.summary.loop_seconds,
         massless.summary.loop_seconds
     );
-    assert!(rel(te_ml, te) <= 0.05, "blade peak {te_ml:e} vs {te:e}");
+    assert!(
+        rel(te_ml, te) <= 0.05,
+        "{label}: blade peak {te_ml:e} vs {te:e}"
+    );
     assert!(
         rel(cas_ml, cas_m) <= 0.05,
-        "casing peak {cas_ml:e} vs {cas_m:e}"
+        "{label}: casing peak {cas_ml:e} vs {cas_m:e}"
     );
-    assert!((f_ml - f).abs() <= 1.5 * df, "dominant {f_ml} Hz vs {f} Hz");
-    for (out, level) in [(&mass, te), (&massless, te_ml)] {
+    assert!(
+        (f_ml - f).abs() <= 1.5 * df,
+        "{label}: dominant {f_ml} Hz vs {f} Hz"
+    );
+    for (out, level) in [(mass, te), (massless, te_ml)] {
         let residual = out.summary.max_residual_penetration;
         assert!(
             residual <= 1e-8 * level,
-            "residual {residual:e} m, level {level:e} m"
+            "{label}: residual {residual:e} m, level {level:e} m"
         );
+    }
+}
+
+#[test]
+fn massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models() {
+    let mass = run(Boundary::Mass, Some(1e-7), None);
+    let massless = run(Boundary::Massless, None, None);
+    assert_same_answer("massless", &mass, &massless);
+    let cut = run(Boundary::Massless, None, Some(CUTOFF_HZ));
+    assert!(cut.summary.time_step > 4.0 * massless.summary.time_step);
+    assert_same_answer("massless, 50 kHz cutoff", &mass, &cut);
+}
+
+/// Mode cutoff of the fast massless configuration (Hz).
+const CUTOFF_HZ: f64 = 5e4;
+
+/// Convergence in h of the massless formulation with the 50 kHz cutoff: the default step,
+/// then halved twice. Each run's peaks stay within 5 % of the finest, and the table is
+/// printed (`cargo test --test massless -- --nocapture`).
+#[test]
+fn massless_formulation_converges_in_the_time_step() {
+    let default = run(Boundary::Massless, None, Some(CUTOFF_HZ));
+    let h = default.summary.time_step;
+    let runs = [
+        default,
+        run(Boundary::Massless, Some(0.5 * h), Some(CUTOFF_HZ)),
+        run(Boundary::Massless, Some(0.25 * h), Some(CUTOFF_HZ)),
+    ];
+    let finest = &runs[2];
+    let (te_f, cas_f) = (peak(&finest.blade_te_radial), peak(&finest.casing_radial));
+    eprintln!(
+        "h (s)      | blade TE peak (m) | vs h/4  | casing peak (m) | vs h/4  | residual (m)"
+    );
+    for out in &runs {
+        let (te, cas) = (peak(&out.blade_te_radial), peak(&out.casing_radial));
+        eprintln!(
+            "{:.3e} | {te:.5e}       | {:+.2} % | {cas:.5e}     | {:+.2} % | {:.2e}",
+            out.summary.time_step,
+            100.0 * (te - te_f) / te_f,
+            100.0 * (cas - cas_f) / cas_f,
+            out.summary.max_residual_penetration
+        );
+        assert!(rel(te, te_f) <= 0.05 && rel(cas, cas_f) <= 0.05);
+        assert!(out.summary.max_residual_penetration <= 1e-8 * te);
     }
 }
 
@@ -106,7 +156,7 @@ fn massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models(
 /// correction, over every step, is below 1e-8 of the vibration level.
 #[test]
 fn contact_correction_leaves_no_penetration_on_the_quickstart_case() {
-    let out = run(Boundary::Mass, 2e-7);
+    let out = run(Boundary::Mass, Some(2e-7), None);
     let level = peak(&out.blade_te_radial);
     let residual = out.summary.max_residual_penetration;
     eprintln!("h = 2e-7 s: residual {residual:.3e} m, level {level:.3e} m");

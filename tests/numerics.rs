@@ -47,11 +47,12 @@ fn run(numerics: Numerics) -> SimulationOutput {
 fn base() -> Numerics {
     let (_, _, limit) = models();
     Numerics {
-        time_step: 0.5 * limit,
+        time_step: Some(0.5 * limit),
         newton_tolerance: 1e-10,
         kernel: KernelChoice::Fast,
         decimation: 1,
         boundary: Boundary::Mass,
+        mode_cutoff_hz: None,
     }
 }
 
@@ -82,7 +83,7 @@ fn the_reference_run_has_contact() {
 fn time_step_sets_the_step_count_and_changes_the_response() {
     let a = run(base());
     let b = run(Numerics {
-        time_step: 0.5 * base().time_step,
+        time_step: base().time_step.map(|h| 0.5 * h),
         ..base()
     });
     assert_eq!(b.summary.time_step, 0.5 * a.summary.time_step);
@@ -153,7 +154,7 @@ fn boundary_model_changes_the_run_and_its_kernels_agree() {
     );
     let (_, _, limit) = models();
     let wide = Numerics {
-        time_step: 1.2 * limit,
+        time_step: Some(1.2 * limit),
         boundary: Boundary::Massless,
         ..base()
     };

@@ -127,7 +127,7 @@ fn run(kernel: KernelChoice) -> SimulationOutput {
         probes: probes(),
         initial_velocity: InitialVelocity::default(),
         numerics: Numerics {
-            time_step: 0.5 * limit,
+            time_step: Some(0.5 * limit),
             newton_tolerance: 1e-10,
             kernel,
             decimation: 1,

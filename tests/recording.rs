@@ -206,7 +206,7 @@ fn decimation_does_not_change_a_coated_flexible_casing_run() {
         probes: tip_probes(rows, Some([25, 4])),
         initial_velocity: Default::default(),
         numerics: Numerics {
-            time_step: h,
+            time_step: Some(h),
             ..Default::default()
         },
         coating: Some(coating),
@@ -239,7 +239,7 @@ fn decimation_does_not_change_a_rigid_casing_run() {
         probes: tip_probes(tips.len(), None),
         initial_velocity: Default::default(),
         numerics: Numerics {
-            time_step: h,
+            time_step: Some(h),
             ..Default::default()
         },
         coating: None,

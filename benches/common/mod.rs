@@ -75,7 +75,7 @@ pub fn bench_with_offsets(
     steps: usize,
 ) -> Result<BenchResult, SimError> {
     let numerics = Numerics {
-        time_step: bench_step(impeller, casing, omega)?,
+        time_step: Some(bench_step(impeller, casing, omega)?),
         kernel,
         ..Default::default()
     };
@@ -107,7 +107,7 @@ pub fn coated_case(
 ) -> Case {
     Case {
         omega,
-        duration: steps as f64 * numerics.time_step,
+        duration: steps as f64 * numerics.time_step.expect("benches set their step"),
         friction: 0.1,
         load,
         clearance_offset: offs,
@@ -255,7 +255,7 @@ pub fn default_models_case(
         ..CoatingCase::new(CoatingMaterial::nominal())
     });
     let numerics = Numerics {
-        time_step: h,
+        time_step: Some(h),
         kernel,
         ..Default::default()
     };

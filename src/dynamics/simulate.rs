@@ -17,7 +17,7 @@ use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
 use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
-use crate::dynamics::numerics::{Boundary, KernelChoice};
+use crate::dynamics::numerics::{Boundary, KernelChoice, STEPS_PER_PERIOD, STEPS_PER_REVOLUTION};
 use crate::dynamics::probes::{
     CoatingOutput, Probe, ProbeQuantity, ProbeTarget, RecoveryEval, RunSummary, SimulationOutput,
     Stage, StageClock, resolve_probes,
@@ -228,7 +228,7 @@ struct Blades {
 }
 
 impl Blades {
-    fn new(case: &Case, impeller: &CyclicRom, st: &Structure) -> Result<Self, SimError> {
+    fn new(case: &Case, h: f64, impeller: &CyclicRom, st: &Structure) -> Result<Self, SimError> {
         let n_blades = impeller.n_sectors;
         let n_contact = impeller.n_contact();
         let rows: Vec<usize> = impeller.contact_nodes.iter().map(|c| c.row).collect();
@@ -257,9 +257,7 @@ impl Blades {
         let te = (0..n_contact).max_by_key(|&j| rows[j]).unwrap_or(0);
         let alpha = 2.0 * PI / n_blades as f64;
         let rot: Vec<Matrix3<f64>> = (0..n_blades).map(|s| rot_z(s as f64 * alpha)).collect();
-        let kernel = Kernel::new(st, case.numerics.time_step, case.numerics.kernel, |k| {
-            NodeFlexTable::build(k)
-        })?;
+        let kernel = Kernel::new(st, h, case.numerics.kernel, |k| NodeFlexTable::build(k))?;
         let nn = n_blades * n_contact;
         let mut nodes_prev = vec![Vector3::zeros(); nn];
         for s in 0..n_blades {
@@ -338,7 +336,12 @@ struct CasingSide {
 }
 
 impl CasingSide {
-    fn new(case: &Case, casing: &CasingModel, st: Option<&Structure>) -> Result<Self, SimError> {
+    fn new(
+        case: &Case,
+        h: f64,
+        casing: &CasingModel,
+        st: Option<&Structure>,
+    ) -> Result<Self, SimError> {
         let (n_sectors, rows, rest_rows, rest_nodes) = match casing {
             CasingModel::Flexible(rom) => {
                 let m = rom.n_contact();
@@ -384,7 +387,7 @@ impl CasingSide {
         let alpha = 2.0 * PI / n_sectors as f64;
         let flexible = match (casing, st) {
             (CasingModel::Flexible(rom), Some(st)) => {
-                let kernel = Kernel::new(st, case.numerics.time_step, case.numerics.kernel, |k| {
+                let kernel = Kernel::new(st, h, case.numerics.kernel, |k| {
                     ControlFlexTable::build(k, &spline)
                 })?;
                 Some(FlexibleCasing {
@@ -519,6 +522,7 @@ impl Casing {
 /// casing kernel: the force on node `(i, M−1)` is `−F cos(n θ_i) e_r`.
 fn set_casing_load(
     case: &Case,
+    h: f64,
     st: Option<&Structure>,
     casing: &mut Casing,
 ) -> Result<(), SimError> {
@@ -552,7 +556,7 @@ fn set_casing_load(
         pat[i * nbc + 3 * te_c..i * nbc + 3 * te_c + 3].copy_from_slice(f.as_slice());
     }
     let mut stat = vec![0.0; ncs * nbc];
-    let mut mk = ModalKernel::new(stc, case.numerics.time_step)?;
+    let mut mk = ModalKernel::new(stc, h)?;
     mk.static_boundary(&pat, &mut stat)
         .map_err(SimError::InvalidCase)?;
     let peak = (0..ncs)
@@ -597,10 +601,22 @@ fn coating_stage(
     })
 }
 
+/// The accuracy-driven default time step (s) of a case at `omega` (rad/s):
+/// [`STEPS_PER_PERIOD`] steps per period of the highest dynamic mode of either structure,
+/// and at least [`STEPS_PER_REVOLUTION`] steps per revolution. Always below the stability
+/// limit `2/ω_max` (π/5 < 2).
+pub fn default_time_step(st_i: &Structure, st_c: Option<&Structure>, omega: f64) -> f64 {
+    let omega_max = st_c.map_or(st_i.omega_max, |c| c.omega_max.max(st_i.omega_max));
+    let per_mode = 2.0 * PI / (omega_max * STEPS_PER_PERIOD);
+    let per_revolution = 2.0 * PI / (omega.abs() * STEPS_PER_REVOLUTION);
+    per_mode.min(per_revolution)
+}
+
 /// Checks the case's scalars and the explicit stability limit `h < 2/ω_max` of both
-/// structures. Returns the limit (s) and the steps per revolution.
+/// structures at the step `h` (s). Returns the limit (s) and the steps per revolution.
 fn check_stability(
     case: &Case,
+    h: f64,
     st_i: &Structure,
     st_c: Option<&Structure>,
 ) -> Result<(f64, f64), SimError> {
@@ -616,7 +632,12 @@ fn check_stability(
     if !(case.friction.is_finite() && case.friction >= 0.0) {
         return bad(format!("friction = {} must be ≥ 0", case.friction));
     }
-    let h = num.time_step;
+    if !(h.is_finite() && h > 0.0) {
+        return bad(format!(
+            "no time step: the default {h} s (neither structure has a dynamic mode and Ω = 0); \
+             set numerics.time_step_s"
+        ));
+    }
     let (mut limit, mut omega_max, mut which) = (
         st_i.stability_limit(),
         st_i.omega_max,
@@ -978,21 +999,28 @@ impl<'a> Simulation<'a> {
         impeller: &CyclicRom,
         casing: &CasingModel,
     ) -> Result<Self, SimError> {
-        let boundary = case.numerics.boundary;
-        let st_i = Structure::new(impeller, case.omega)?.with_boundary(boundary);
+        let num = &case.numerics;
+        let st_i = Structure::new(impeller, case.omega)?
+            .with_boundary(num.boundary)
+            .with_mode_cutoff(num.mode_cutoff_hz);
         let st_c = match casing {
-            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?.with_boundary(boundary)),
+            CasingModel::Flexible(rom) => Some(
+                Structure::new(rom, 0.0)?
+                    .with_boundary(num.boundary)
+                    .with_mode_cutoff(num.mode_cutoff_hz),
+            ),
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
-        let (limit, steps_per_revolution) = check_stability(case, &st_i, st_c.as_ref())?;
+        let h =
+            (num.time_step).unwrap_or_else(|| default_time_step(&st_i, st_c.as_ref(), case.omega));
+        let (limit, steps_per_revolution) = check_stability(case, h, &st_i, st_c.as_ref())?;
         let casing_rom = match casing {
             CasingModel::Flexible(rom) => Some(rom),
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
         let probes = resolve_probes(&case.probes, impeller, casing_rom)
             .map_err(|e| SimError::InvalidCase(e.to_string()))?;
-        let h = case.numerics.time_step;
-        let mut blades = Blades::new(case, impeller, &st_i)?;
+        let mut blades = Blades::new(case, h, impeller, &st_i)?;
         let mut casing = match casing {
             CasingModel::ImposedGap(g) => {
                 let offsets: Vec<Vector3<f64>> = (blades.reference.iter())
@@ -1005,9 +1033,9 @@ impl<'a> Simulation<'a> {
                         .map_err(|e| SimError::InvalidCase(format!("imposed-gap casing: {e}")))?,
                 )
             }
-            model => Casing::Surface(CasingSide::new(case, model, st_c.as_ref())?),
+            model => Casing::Surface(CasingSide::new(case, h, model, st_c.as_ref())?),
         };
-        set_casing_load(case, st_c.as_ref(), &mut casing)?;
+        set_casing_load(case, h, st_c.as_ref(), &mut casing)?;
         set_initial_velocities(case, &st_i, st_c.as_ref(), &mut blades, &mut casing)?;
         let nn = blades.n_blades * blades.n_contact;
         let coating = coating_stage(
@@ -1083,6 +1111,11 @@ impl<'a> Simulation<'a> {
         })
     }
 
+    /// The time step h (s): the case's, or the default of [`default_time_step`].
+    pub fn time_step(&self) -> f64 {
+        self.summary.time_step
+    }
+
     /// Runs every step, polling `cancel` every 1024 steps; hands each sample to `recorder`.
     pub fn run(
         mut self,
@@ -1097,7 +1130,7 @@ impl<'a> Simulation<'a> {
                 && c.load(Ordering::Relaxed)
             {
                 return Err(SimError::Cancelled {
-                    time: self.steps_done as f64 * self.case.numerics.time_step,
+                    time: self.steps_done as f64 * self.summary.time_step,
                 });
             }
             self.step(recorder)?;
@@ -1133,7 +1166,7 @@ impl<'a> Simulation<'a> {
 
     /// Box 1: the predictors `u*_{n+1}` of both structures (the casing under its load).
     fn predict(&mut self) {
-        let h = self.case.numerics.time_step;
+        let h = self.summary.time_step;
         let t_n = self.steps_done as f64 * h;
         // The same expression as the next step's t_n (the fused predictor checks its amplitude).
         self.t1 = (self.steps_done + 1) as f64 * h;
@@ -2659,11 +2692,12 @@ mod tests {
             probes: vec![],
             initial_velocity: InitialVelocity::default(),
             numerics: Numerics {
-                time_step: h,
+                time_step: Some(h),
                 newton_tolerance: eps,
                 kernel,
                 decimation: 5,
                 boundary: Default::default(),
+                mode_cutoff_hz: None,
             },
             coating: None,
         }
@@ -2799,7 +2833,7 @@ mod tests {
                 casing: None,
             },
             numerics: Numerics {
-                time_step: h,
+                time_step: Some(h),
                 decimation: 1,
                 newton_tolerance: 1e-12,
                 ..Default::default()
@@ -2895,7 +2929,7 @@ mod tests {
                 casing: None,
             },
             numerics: Numerics {
-                time_step: h,
+                time_step: Some(h),
                 decimation: 1,
                 newton_tolerance: 1e-12,
                 boundary: Boundary::Massless,
@@ -2981,7 +3015,7 @@ mod tests {
             probes: vec![],
             initial_velocity: InitialVelocity::default(),
             numerics: Numerics {
-                time_step: h,
+                time_step: Some(h),
                 decimation: 1,
                 ..Default::default()
             },
@@ -3109,7 +3143,7 @@ mod tests {
                 casing: None,
             },
             numerics: Numerics {
-                time_step: h,
+                time_step: Some(h),
                 decimation: 1,
                 ..Default::default()
             },

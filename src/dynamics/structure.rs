@@ -246,11 +246,35 @@ impl Structure {
             for b in &mut self.blocks {
                 b.n_static = b.n - b.n_modes;
             }
-            self.omega_max = (self.blocks.iter())
-                .flat_map(|b| b.omega[..b.first_static()].iter().copied())
-                .fold(0.0, f64::max);
+            self.omega_max = self.dynamic_omega_max();
         }
         self
+    }
+
+    /// With a massless boundary, also the modes above `cutoff_hz` (Hz) static in every nodal
+    /// diameter (both parts of a pair alike), and `ω_max` that of the modes left dynamic.
+    /// `None`, or the paper's formulation, leaves the structure as it is.
+    pub fn with_mode_cutoff(mut self, cutoff_hz: Option<f64>) -> Self {
+        let Some(cut) = cutoff_hz.map(|f| 2.0 * std::f64::consts::PI * f) else {
+            return self;
+        };
+        if !self.has_static_modes() {
+            return self;
+        }
+        for b in &mut self.blocks {
+            let above = b.omega[..b.first_static()].iter().filter(|&&w| w > cut);
+            let pairs = above.count().div_ceil(b.parts());
+            b.n_static = (b.n_static + pairs).min(b.n);
+        }
+        self.omega_max = self.dynamic_omega_max();
+        self
+    }
+
+    /// Highest circular frequency of the dynamic modes (rad/s).
+    fn dynamic_omega_max(&self) -> f64 {
+        (self.blocks.iter())
+            .flat_map(|b| b.omega[..b.first_static()].iter().copied())
+            .fold(0.0, f64::max)
     }
 
     /// Whether some modes are static (a massless boundary).
@@ -419,6 +443,54 @@ mod tests {
             assert!(b.omega.windows(2).all(|w| w[0] <= w[1]));
         }
         assert!((st.stability_limit() - 2.0 / st.omega_max).abs() < 1e-20);
+    }
+
+    #[test]
+    fn a_mode_cutoff_makes_every_mode_above_it_static_and_no_other() {
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 6, 2, 4));
+        let mass = Structure::new(&rom, 0.0).unwrap();
+        let all: Vec<f64> = mass.blocks.iter().flat_map(|b| b.omega.clone()).collect();
+        let mut sorted = all.clone();
+        sorted.sort_by(f64::total_cmp);
+        // A cutoff between two distinct frequencies of the dynamic range.
+        let massless = mass.clone().with_boundary(Boundary::Massless);
+        let below = massless.omega_max;
+        let lower = sorted
+            .iter()
+            .rev()
+            .find(|&&w| w < 0.9 * below)
+            .copied()
+            .unwrap();
+        let cut_hz = 0.5 * (lower + below) / (2.0 * std::f64::consts::PI);
+        let cut = massless.clone().with_mode_cutoff(Some(cut_hz));
+        assert!(cut.omega_max <= 2.0 * std::f64::consts::PI * cut_hz);
+        assert!(cut.omega_max < massless.omega_max);
+        assert!((cut.stability_limit() - 2.0 / cut.omega_max).abs() < 1e-20);
+        for (b, m) in cut.blocks.iter().zip(&massless.blocks) {
+            assert!(b.n_static >= m.n_static);
+            let (dynamic, stat) = b.omega.split_at(b.first_static());
+            assert!(
+                dynamic
+                    .iter()
+                    .all(|&w| w <= 2.0 * std::f64::consts::PI * cut_hz)
+            );
+            // Only modes above the cutoff joined the static ones (both parts of a pair).
+            let joined = &stat[..stat.len() - b.parts() * m.n_static];
+            assert!(
+                joined
+                    .iter()
+                    .all(|&w| w > 2.0 * std::f64::consts::PI * cut_hz)
+            );
+        }
+        // The paper's formulation has no static modes to join: a cutoff leaves it as it is.
+        let unchanged = mass.clone().with_mode_cutoff(Some(cut_hz));
+        assert_eq!(unchanged.omega_max, mass.omega_max);
+        assert!(!unchanged.has_static_modes());
+        // A cutoff above every mode changes nothing.
+        let high = massless
+            .clone()
+            .with_mode_cutoff(Some(2.0 * all[0].max(below) * 1e3));
+        assert_eq!(high.omega_max, massless.omega_max);
     }
 
     #[test]

@@ -249,8 +249,9 @@ pub fn plan(spec: &SweepSpec) -> Result<Plan, SpecError> {
         });
     }
     // Rounded as the simulation counts its steps (`Simulation::new`): 2e-4 s / 2e-7 s is
-    // 1000.0000000000001, 1000 steps, not 1001.
-    let steps_per_job = Some((spec.scenario.duration_s / spec.numerics.time_step).round() as u64);
+    // 1000.0000000000001, 1000 steps, not 1001. A default step is known per job only.
+    let steps_per_job =
+        (spec.numerics.time_step).map(|h| (spec.scenario.duration_s / h).round() as u64);
     Ok(Plan {
         total_steps: steps_per_job.map(|s| s.saturating_mul(n_jobs as u64)),
         steps_per_job,

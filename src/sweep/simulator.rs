@@ -414,7 +414,7 @@ impl JobSimulator for ModelSimulator {
         // The clock starts with the time loop: building the case is not the job's run.
         let reporter = StepReporter {
             steps,
-            time_step: case.numerics.time_step,
+            time_step: simulation.time_step(),
         };
         let mut limited = (
             (WallClockLimit::new(self.job_time_limit_s), reporter),

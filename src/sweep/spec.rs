@@ -697,7 +697,12 @@ impl SweepSpec {
 
     fn validate_numerics(&self, issues: &mut Vec<SpecIssue>) {
         let n = &self.numerics;
-        check_positive(issues, "/numerics/time_step_s", n.time_step, " s");
+        if let Some(h) = n.time_step {
+            check_positive(issues, "/numerics/time_step_s", h, " s");
+        }
+        if let Some(f) = n.mode_cutoff_hz {
+            check_positive(issues, "/numerics/mode_cutoff_hz", f, " Hz");
+        }
         check_positive(issues, "/numerics/newton_tolerance", n.newton_tolerance, "");
         if n.decimation == 0 {
             issues.push(SpecIssue {
@@ -717,6 +722,13 @@ impl SweepSpec {
                 reason: reason.into(),
             })
         };
+        if self.numerics.boundary == Boundary::Mass && self.numerics.mode_cutoff_hz.is_some() {
+            reject(
+                "/numerics/mode_cutoff_hz",
+                "a mode cutoff needs \"boundary\": \"massless\": in the paper's formulation \
+                 every retained mode carries its mass",
+            );
+        }
         if self.numerics.boundary == Boundary::Massless && sc.coating.is_some() {
             reject(
                 "/numerics/boundary",
@@ -1021,7 +1033,7 @@ mod tests {
         let spec = spec_from_value(base()).unwrap();
         assert_eq!(spec.scenario.load_ramp_s, Some(0.05));
         assert_eq!(spec.numerics.newton_tolerance, 1e-9);
-        assert_eq!(spec.numerics.time_step, 1e-5);
+        assert_eq!(spec.numerics.time_step, Some(1e-5));
         // Unset numerics take the simulator's defaults.
         assert_eq!(spec.numerics.decimation, Numerics::default().decimation);
         // 600 rpm = 10 rev/s = 20π rad/s.
@@ -1256,6 +1268,26 @@ mod tests {
         assert!(
             i.iter().any(|s| s
                 .starts_with("/numerics/boundary: a massless boundary with an abradable coating")),
+            "{i:?}"
+        );
+    }
+
+    #[test]
+    fn a_mode_cutoff_needs_a_massless_boundary_and_a_positive_frequency() {
+        let mut v = base();
+        v["numerics"]["mode_cutoff_hz"] = serde_json::json!(5e4);
+        let i = issues_of(v.clone());
+        assert!(
+            i.iter()
+                .any(|s| s.starts_with("/numerics/mode_cutoff_hz: a mode cutoff needs")),
+            "{i:?}"
+        );
+        v["numerics"]["boundary"] = serde_json::json!("massless");
+        assert!(spec_from_value(v.clone()).is_ok());
+        v["numerics"]["mode_cutoff_hz"] = serde_json::json!(-1.0);
+        let i = issues_of(v);
+        assert!(
+            i.iter().any(|s| s.starts_with("/numerics/mode_cutoff_hz")),
             "{i:?}"
         );
     }
@@ -1533,6 +1565,8 @@ mod tests {
             direction: GapDirection::PerNode(vec![[1.0, 0.0, 0.0]]),
         });
         f.numerics.boundary = Boundary::Massless;
+        f.numerics.mode_cutoff_hz = Some(5e4);
+        f.numerics.time_step = Some(2e-6);
         vec![a, b, c, d, e, f]
     }
 

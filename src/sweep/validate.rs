@@ -138,7 +138,10 @@ fn check_speeds_and_step(
 ) {
     let casing_structure = match casing {
         ResolvedCasing::Flexible(rom) => match Structure::new(rom, 0.0) {
-            Ok(s) => Some(s.with_boundary(spec.numerics.boundary)),
+            Ok(s) => Some(
+                s.with_boundary(spec.numerics.boundary)
+                    .with_mode_cutoff(spec.numerics.mode_cutoff_hz),
+            ),
             Err(e) => {
                 issues.push(issue("/models/casing", e.to_string()));
                 return;
@@ -167,7 +170,9 @@ fn check_speeds_and_step(
             continue;
         }
         let st = match Structure::new(impeller, omega) {
-            Ok(st) => st.with_boundary(spec.numerics.boundary),
+            Ok(st) => st
+                .with_boundary(spec.numerics.boundary)
+                .with_mode_cutoff(spec.numerics.mode_cutoff_hz),
             Err(e @ StructureError::Indefinite { .. }) => {
                 issues.push(issue(
                     speed_pointer(spec, i),
@@ -192,7 +197,9 @@ fn check_speeds_and_step(
             }
         }
     }
+    // The default step is below every limit by construction.
     if let Some((limit, omega, which)) = worst
+        && let Some(h) = h
         && h >= limit
     {
         issues.push(issue(
