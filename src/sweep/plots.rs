@@ -265,6 +265,8 @@ struct Pending {
     size: f64,
     color: RGBColor,
     candidates: Vec<(i32, i32)>,
+    /// Box drawn behind the text (labels over a colour map), if any.
+    background: Option<RGBAColor>,
 }
 
 /// Places `pending` labels (priority order) inside `area`, away from `obstacles`, draws the
@@ -290,6 +292,12 @@ where
     for (p, b) in pending.into_iter().zip(boxes.iter().copied()) {
         match b {
             Some(bbox) => {
+                if let Some(bg) = p.background {
+                    root.draw(&Rectangle::new(
+                        [(bbox.x0 - 1, bbox.y0 - 1), (bbox.x1 + 1, bbox.y1 + 1)],
+                        bg.filled(),
+                    ))?;
+                }
                 root.draw(&Text::new(
                     p.text.clone(),
                     (bbox.x0, bbox.y0),
@@ -471,8 +479,9 @@ where
         pending.push(Pending {
             text,
             size: 14.0,
-            color: RGBColor(255, 90, 90),
+            color: RGBColor(255, 120, 120),
             candidates,
+            background: Some(BLACK.mix(0.45)),
         });
     }
     let (labels, _) = draw_labels(&root, pending, area, &[])?;
@@ -525,6 +534,7 @@ where
             text,
             size: 14.0,
             color: WHITE,
+            background: Some(BLACK.mix(0.45)),
         });
     }
     let mode_color = RGBColor(255, 170, 200);
@@ -550,6 +560,7 @@ where
             text: m.label.clone(),
             size: 13.0,
             color: mode_color,
+            background: Some(BLACK.mix(0.45)),
         });
     }
     for &w in &d.critical_speeds_rad_s {
@@ -719,8 +730,14 @@ where
         .y_label_formatter(&|v| format!("{v:.0}"))
         .draw()?;
     if let Some((a, b)) = d.speed_band_rad_s {
+        // A single-speed sweep still shows: at least 0.6 % of the axis wide.
+        let half = (0.5 * (b - a)).max(0.003 * (x_hi - x_lo));
+        let mid = 0.5 * (a + b);
         chart.draw_series(std::iter::once(Rectangle::new(
-            [(a.max(x_lo), 0.0), (b.min(x_hi), f_max)],
+            [
+                ((mid - half).max(x_lo), 0.0),
+                ((mid + half).min(x_hi), f_max),
+            ],
             RGBColor(255, 200, 120).mix(0.35).filled(),
         )))?;
     }
@@ -787,6 +804,7 @@ where
                 text,
                 size: 13.0,
                 color: BLACK,
+                background: Some(WHITE.mix(0.8)),
             },
         ));
     }

@@ -473,6 +473,75 @@ fn campbell_figure(
     });
 }
 
+/// One interaction map per slice of the grid with two speeds or more (jobs sharing every
+/// parameter but the speed), zoomed by [`interaction_band_hz`], with the `modes` drawn.
+fn interaction_figures(
+    res: &ResultsDir,
+    modes: &[ModeLine],
+    out: &Path,
+    figures: &mut Vec<Figure>,
+    report: &mut Report,
+) -> Result<(), ReportError> {
+    let n_lobes = lobes(&res.spec);
+    let mut slices: Vec<(String, Vec<&JobRecord>)> = Vec::new();
+    for (_, r) in res.records.iter().filter(|(_, r)| r.is_ok()) {
+        let key = slice_label(&r.params);
+        match slices.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, v)) => v.push(r),
+            None => slices.push((key, vec![r])),
+        }
+    }
+    for (k, (label, recs)) in slices.iter().enumerate() {
+        let mut data = interaction_data_from_records(
+            recs.iter().copied(),
+            (1..=12).map(|e| e * n_lobes).collect(),
+        );
+        let mut distinct: Vec<f64> = data.columns.iter().map(|c| c.speed_rad_s).collect();
+        distinct.sort_by(f64::total_cmp);
+        distinct.dedup();
+        if distinct.len() < 2 {
+            continue;
+        }
+        let w_max = distinct[distinct.len() - 1];
+        // The band must show the first engine order of the excitation and the blade modes.
+        let floor = modes
+            .iter()
+            .flat_map(|m| m.speeds_rad_s.iter().zip(&m.frequency_hz))
+            .filter(|&(&w, _)| w >= distinct[0] && w <= w_max)
+            .map(|(_, &f)| f)
+            .fold(f64::from(n_lobes) * w_max / TAU, f64::max);
+        data.max_frequency_hz = Some(interaction_band_hz(&data.columns, floor));
+        data.mode_lines = modes.to_vec();
+        data.subtitle = label.clone();
+        let file = if slices.len() == 1 {
+            "interaction_map.png".to_string()
+        } else {
+            format!("interaction_map_{k}.png")
+        };
+        let labels = interaction_map(&data, &out.join(&file))?;
+        figures.push(Figure {
+            file,
+            title: format!("Interaction map, {label} (Fig. 20)"),
+            caption: format!(
+                "Amplitude spectrum of blade 0's leading-edge radial displacement over the \
+                 steady window (colour: log10 of the amplitude in m) against the rotation \
+                 speed Ω (rad/s) and the frequency (Hz, rotating frame), up to {:.0} Hz (1.2 × the highest of the first engine \
+                 order, the modes shown and each job's dominant frequency). White: engine \
+                 orders (multiples of the {n_lobes} lobes); pink dashed: first blade mode of the \
+                 nodal diameters of the Campbell diagram; red: critical speeds Ω* (rad/s).",
+                data.max_frequency_hz.unwrap_or(0.0)
+            ),
+        });
+        report.interaction_labels.push(labels);
+    }
+    if report.interaction_labels.is_empty() {
+        report
+            .notes
+            .push("no interaction map: no slice of the grid has two speeds with spectra".into());
+    }
+    Ok(())
+}
+
 /// Writes the report of the results directory `dir` (see the module doc) and returns what
 /// it wrote. Inputs are read and checked before any file is written.
 pub fn write_report(dir: &Path, opts: &ReportOptions) -> Result<Report, ReportError> {
@@ -562,66 +631,10 @@ pub fn write_report(dir: &Path, opts: &ReportOptions) -> Result<Report, ReportEr
         }
     }
 
-    let n_lobes = lobes(&res.spec);
     let modes = sim
         .as_ref()
         .map_or(vec![], |s| blade_mode_lines(s, &diameters));
-    let mut slices: Vec<(String, Vec<&JobRecord>)> = Vec::new();
-    for (_, r) in res.records.iter().filter(|(_, r)| r.is_ok()) {
-        let key = slice_label(&r.params);
-        match slices.iter_mut().find(|(k, _)| *k == key) {
-            Some((_, v)) => v.push(r),
-            None => slices.push((key, vec![r])),
-        }
-    }
-    for (k, (label, recs)) in slices.iter().enumerate() {
-        let mut data = interaction_data_from_records(
-            recs.iter().copied(),
-            (1..=12).map(|e| e * n_lobes).collect(),
-        );
-        let mut distinct: Vec<f64> = data.columns.iter().map(|c| c.speed_rad_s).collect();
-        distinct.sort_by(f64::total_cmp);
-        distinct.dedup();
-        if distinct.len() < 2 {
-            continue;
-        }
-        let w_max = distinct[distinct.len() - 1];
-        // The band must show the first engine order of the excitation and the blade modes.
-        let floor = modes
-            .iter()
-            .flat_map(|m| m.speeds_rad_s.iter().zip(&m.frequency_hz))
-            .filter(|&(&w, _)| w >= distinct[0] && w <= w_max)
-            .map(|(_, &f)| f)
-            .fold(f64::from(n_lobes) * w_max / TAU, f64::max);
-        data.max_frequency_hz = Some(interaction_band_hz(&data.columns, floor));
-        data.mode_lines = modes.clone();
-        data.subtitle = label.clone();
-        let file = if slices.len() == 1 {
-            "interaction_map.png".to_string()
-        } else {
-            format!("interaction_map_{k}.png")
-        };
-        let labels = interaction_map(&data, &out.join(&file))?;
-        figures.push(Figure {
-            file,
-            title: format!("Interaction map, {label} (Fig. 20)"),
-            caption: format!(
-                "Amplitude spectrum of blade 0's leading-edge radial displacement over the \
-                 steady window (colour: log10 of the amplitude in m) against the rotation \
-                 speed Ω (rad/s) and the frequency (Hz, rotating frame), up to {:.0} Hz (1.2 × the highest of the first engine \
-                 order, the modes shown and each job's dominant frequency). White: engine \
-                 orders (multiples of the {n_lobes} lobes); pink dashed: first blade mode of the \
-                 nodal diameters of the Campbell diagram; red: critical speeds Ω* (rad/s).",
-                data.max_frequency_hz.unwrap_or(0.0)
-            ),
-        });
-        report.interaction_labels.push(labels);
-    }
-    if report.interaction_labels.is_empty() {
-        report
-            .notes
-            .push("no interaction map: no slice of the grid has two speeds with spectra".into());
-    }
+    interaction_figures(&res, &modes, &out, &mut figures, &mut report)?;
 
     let html = index_html(&res, &chosen, &figures, &report, sim.as_ref());
     write_atomic(&report.index, html.as_bytes()).map_err(|source| ReportError::Write {
