@@ -17,13 +17,11 @@ use crate::dynamics::{Boundary, SimError, Simulation};
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
 use crate::io::timeseries::TimeSeriesWriter;
-use crate::sweep::plots::{
-    CampbellData, CasingMode, ImpellerBranch, campbell_diagram, write_sweep_plots,
-};
+use crate::sweep::plots::{campbell_diagram, write_sweep_plots};
 use crate::sweep::probe_report::ProbeReport;
+use crate::sweep::report::{self, campbell_data, write_report};
 use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::slurm;
-use crate::sweep::spec::CasingSource;
 use crate::sweep::status::status as sweep_status;
 use crate::sweep::{
     MergeSummary, ResolvedSweep, RunOptions, RunSummary, SpecError, default_output_dir,
@@ -36,6 +34,7 @@ use crate::model::build::{ModelSpec, build_casing, build_impeller};
 
 pub use crate::io::model_cache::{casing_rom, impeller_rom};
 use crate::model::rom::CyclicRom;
+pub use crate::sweep::report::{DEFAULT_MAX_JOBS as DEFAULT_REPORT_JOBS, ReportOptions};
 
 /// Exit status: every job ran and succeeded.
 pub const EXIT_OK: u8 = 0;
@@ -428,12 +427,7 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     }
     let summary = run_sweep(&spec, &opts, &sim)?;
     let records = load_records(&opts.output_dir, plan(&spec)?.jobs.iter());
-    let lobes = match &spec.models.casing {
-        CasingSource::Rigid(r) => r.lobes,
-        CasingSource::ImposedGap(g) => g.profile.lobes().unwrap_or(1) as u32,
-        _ => spec.scenario.lobes.unwrap_or(2),
-    }
-    .max(1);
+    let lobes = report::lobes(&spec);
     let orders: Vec<u32> = (1..=8).map(|i| i * lobes).collect();
     let plots =
         write_sweep_plots(&opts.output_dir, &records, &orders).map_err(anyhow::Error::from)?;
@@ -476,7 +470,6 @@ pub fn check_run(summary: &RunSummary) -> Result<(), AppError> {
 /// models, as a table; draws the absolute-frame Campbell diagram to `output` (PNG or SVG).
 pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
     let sim = ModelSimulator::from_resolved(load_resolved(spec_path)?)?;
-    let imp = sim.impeller();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -495,53 +488,26 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
     }
     // A readable diagram: the nodal diameters of the first critical speeds, first casing mode
     // and first two impeller branches of each.
-    let mut diameters: Vec<u32> = sim
-        .critical_speeds()
-        .iter()
-        .map(|c| c.nodal_diameter)
-        .collect();
-    diameters.sort_unstable();
-    diameters.dedup();
-    diameters.truncate(6);
-    let speeds = imp
-        .modal_data
-        .first()
-        .map(|m| m.omega.clone())
-        .unwrap_or_default();
-    let n_b = imp.n_sectors;
-    let impeller = diameters
-        .iter()
-        .flat_map(|&n| {
-            let k = crate::analysis::interaction::aliased_nodal_diameter(n as usize, n_b);
-            let md = &imp.modal_data[k];
-            (0..md.frequencies.first().map_or(0, Vec::len).min(2)).map(move |p| ImpellerBranch {
-                nodal_diameter: n,
-                omega_rad_s: md.frequencies.iter().map(|f| 2.0 * PI * f[p]).collect(),
-            })
-        })
-        .collect();
-    let casing = sim.casing_rom().map_or(vec![], |rom| {
-        diameters
-            .iter()
-            .filter_map(|&n| rom.modal_data.get(n as usize))
-            .map(|m| CasingMode {
-                nodal_diameter: m.nodal_diameter as u32,
-                omega_rad_s: 2.0 * PI * m.frequencies[0][0],
-            })
-            .collect()
-    });
-    let data = CampbellData {
-        speeds_rad_s: speeds,
-        casing,
-        impeller,
-        critical_speeds: sim
-            .critical_speeds()
-            .iter()
-            .map(|c| (c.speed_rad_s, c.nodal_diameter))
-            .collect(),
-    };
+    let data = campbell_data(&sim, None);
     campbell_diagram(&data, output).map_err(anyhow::Error::from)?;
     let _ = writeln!(s, "Campbell diagram -> {}", output.display());
+    Ok(s)
+}
+
+/// `rubscan report`: the paper's figures and an `index.html` from a results directory (see
+/// [`crate::sweep::report`]); returns a summary for the terminal. A missing or malformed
+/// manifest or table is an error naming the file (exit status 1), before anything is written.
+pub fn report(results: &Path, options: &ReportOptions) -> Result<String, AppError> {
+    let r = write_report(results, options).map_err(anyhow::Error::from)?;
+    let mut s = String::new();
+    let _ = writeln!(s, "jobs shown: {:?}", r.selected);
+    for n in &r.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
+    for f in &r.figures {
+        let _ = writeln!(s, "figure -> {}", f.display());
+    }
+    let _ = writeln!(s, "report -> {}", r.index.display());
     Ok(s)
 }
 

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use rubscan::app::{self, AppError, ImportFormat, RunArgs, SlurmArgs};
+use rubscan::app::{self, AppError, ImportFormat, ReportOptions, RunArgs, SlurmArgs};
 
 /// Exit statuses, shown by `rubscan --help`.
 const EXIT_STATUS_HELP: &str = "\
@@ -107,6 +107,22 @@ enum Command {
         /// Submit with sbatch and print the job ids (default: print the sbatch commands).
         #[arg(long)]
         submit: bool,
+    },
+    /// The paper's figures (time histories, wear, strain energy per nodal diameter, Campbell
+    /// diagram, interaction map) and an index.html from a results directory.
+    Report {
+        /// Output directory of `rubscan run` or `rubscan merge`.
+        results: PathBuf,
+        /// Output directory (default <results>/report).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Job index to overlay in the per-job figures (repeatable; default: chosen from the
+        /// grid, see the page).
+        #[arg(long = "job")]
+        jobs: Vec<usize>,
+        /// At most this many jobs chosen when none is named.
+        #[arg(long, default_value_t = app::DEFAULT_REPORT_JOBS)]
+        max_jobs: usize,
     },
     /// Critical speeds of the linear interaction criterion and the Campbell diagram.
     Campbell {
@@ -236,6 +252,20 @@ fn dispatch(command: Command) -> Result<(), AppError> {
                 partition,
                 output,
                 submit,
+            },
+        )
+        .map(|text| print!("{text}")),
+        Command::Report {
+            results,
+            output,
+            jobs,
+            max_jobs,
+        } => app::report(
+            &results,
+            &ReportOptions {
+                output_dir: output,
+                jobs,
+                max_jobs,
             },
         )
         .map(|text| print!("{text}")),

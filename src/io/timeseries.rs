@@ -185,6 +185,45 @@ impl Recorder for TimeSeriesWriter {
     }
 }
 
+/// Reads the columns of a time-series file whose names `keep` accepts, in file order, as
+/// `(name, values)`; errors name the file (and the column that is not `Float64`).
+pub fn read_columns(path: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<(String, Vec<f64>)>> {
+    use parquet::arrow::ProjectionMask;
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+    let file =
+        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
+        .with_context(|| format!("{}: not a Parquet table", path.display()))?;
+    let names: Vec<String> = builder
+        .schema()
+        .fields()
+        .iter()
+        .map(|f| f.name().clone())
+        .collect();
+    let picked: Vec<usize> = (0..names.len()).filter(|&i| keep(&names[i])).collect();
+    let mask = ProjectionMask::roots(builder.parquet_schema(), picked.iter().copied());
+    let reader = builder
+        .with_projection(mask)
+        .build()
+        .with_context(|| format!("reading {}", path.display()))?;
+    let mut out: Vec<(String, Vec<f64>)> = picked
+        .iter()
+        .map(|&i| (names[i].clone(), Vec::new()))
+        .collect();
+    for batch in reader {
+        let batch = batch.with_context(|| format!("reading {}", path.display()))?;
+        for (k, (name, values)) in out.iter_mut().enumerate() {
+            let col = batch
+                .column(k)
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .with_context(|| format!("{}: column {name} is not float64", path.display()))?;
+            values.extend_from_slice(col.values());
+        }
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -261,6 +300,18 @@ mod tests {
         }
         let expect: Vec<f64> = (0..n).map(|i| sample(i).1[1]).collect();
         assert_eq!(values, expect);
+        // read_columns: the chosen columns over both row groups, in file order.
+        let cols = read_columns(&path, |c| c == "blade1_le_radial_m" || c == "time_s").unwrap();
+        let names: Vec<&str> = cols.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["time_s", "blade1_le_radial_m"]);
+        assert_eq!(cols[1].1, expect);
+        assert_eq!(cols[0].1.len(), n);
+        std::fs::write(dir.join("bad.parquet"), b"PAR1 nonsense").unwrap();
+        let err = format!(
+            "{:#}",
+            read_columns(&dir.join("bad.parquet"), |_| true).unwrap_err()
+        );
+        assert!(err.contains("bad.parquet"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

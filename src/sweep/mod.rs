@@ -11,9 +11,12 @@
 
 pub mod aggregate;
 pub mod checkpoint;
+pub mod figures;
+pub mod labels;
 pub mod planner;
 pub mod plots;
 pub mod probe_report;
+pub mod report;
 pub mod runner;
 pub mod schema;
 pub mod simulator;

@@ -12,7 +12,13 @@ use std::sync::OnceLock;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use plotters::coord::ranged1d::Ranged;
+use plotters::coord::types::RangedCoordf64;
+
+use crate::io::atomic::write_atomic;
+use crate::sweep::CriticalSpeed;
 use crate::sweep::checkpoint::JobRecord;
+use crate::sweep::labels::{LabelBox, LabelRequest, place_labels};
 
 static FONT: &[u8] = include_bytes!("assets/DejaVuSans.ttf");
 
@@ -64,6 +70,20 @@ pub struct InteractionMapData {
     pub dynamic_range_decades: f64,
     /// Extra caption text (e.g. the fixed parameters of this slice of the sweep).
     pub subtitle: String,
+    /// Natural-frequency curves drawn over the map (dashed), e.g. the blade modes of the
+    /// nodal diameters of the critical speeds.
+    pub mode_lines: Vec<ModeLine>,
+}
+
+/// A frequency curve over speed drawn on an interaction map.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeLine {
+    /// Label, e.g. "impeller n = 5, mode 1".
+    pub label: String,
+    /// Speeds Ω (rad/s), increasing.
+    pub speeds_rad_s: Vec<f64>,
+    /// Frequency (Hz) at each speed.
+    pub frequency_hz: Vec<f64>,
 }
 
 /// A casing mode of the Campbell diagram (fixed frame, independent of Ω).
@@ -93,8 +113,10 @@ pub struct CampbellData {
     pub casing: Vec<CasingMode>,
     /// Impeller branches.
     pub impeller: Vec<ImpellerBranch>,
-    /// Critical speeds (Ω*, n) to mark.
-    pub critical_speeds: Vec<(f64, u32)>,
+    /// Critical speeds to mark (speed, nodal diameter, compatibility).
+    pub critical_speeds: Vec<CriticalSpeed>,
+    /// Speed range (rad/s) shaded as the swept one, if any.
+    pub speed_band_rad_s: Option<(f64, f64)>,
 }
 
 /// One row of a wear map.
@@ -161,44 +183,153 @@ fn nd_color(n: u32) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
+type DrawResult<T = ()> = Result<T, Box<dyn std::error::Error>>;
 
-/// Renders `draw` into `path` (PNG or SVG by extension) through a temporary file.
-fn render(
+/// Renders a figure of `size` pixels to `path`, PNG or SVG by extension: drawn in memory, then
+/// written atomically ([`write_atomic`]), so a plot is either complete or absent. Returns what
+/// the drawing returns (e.g. the placed labels).
+pub(crate) fn render<R>(
     path: &Path,
     size: (u32, u32),
-    draw_png: impl FnOnce(DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResult,
-    draw_svg: impl FnOnce(DrawingArea<SVGBackend<'_>, Shift>) -> DrawResult,
-) -> Result<(), PlotError> {
+    draw_png: impl FnOnce(DrawingArea<BitMapBackend<'_>, Shift>) -> DrawResult<R>,
+    draw_svg: impl FnOnce(DrawingArea<SVGBackend<'_>, Shift>) -> DrawResult<R>,
+) -> Result<R, PlotError> {
     ensure_font()?;
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .ok_or_else(|| PlotError::Format(path.to_path_buf()))?;
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{stem}.{}.tmp.{ext}", std::process::id()));
-    let err = |e: Box<dyn std::error::Error>| PlotError::Draw {
+    let err = |message: String| PlotError::Draw {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        message,
     };
-    let result = match ext.as_str() {
-        "png" => draw_png(BitMapBackend::new(&tmp, size).into_drawing_area()).map_err(err),
-        "svg" => draw_svg(SVGBackend::new(&tmp, size).into_drawing_area()).map_err(err),
+    let (bytes, out) = match ext.as_str() {
+        "png" => {
+            let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+            let out = draw_png(BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area())
+                .map_err(|e| err(e.to_string()))?;
+            (encode_png(&rgb, size).map_err(|e| err(e.to_string()))?, out)
+        }
+        "svg" => {
+            let mut svg = String::new();
+            let out = draw_svg(SVGBackend::with_string(&mut svg, size).into_drawing_area())
+                .map_err(|e| err(e.to_string()))?;
+            (svg.into_bytes(), out)
+        }
         _ => return Err(PlotError::Format(path.to_path_buf())),
     };
-    match result {
-        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| PlotError::Draw {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        }),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(e)
+    write_atomic(path, &bytes).map_err(|e| err(e.to_string()))?;
+    Ok(out)
+}
+
+/// An 8-bit RGB image as PNG bytes.
+fn encode_png(rgb: &[u8], size: (u32, u32)) -> Result<Vec<u8>, png::EncodingError> {
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, size.0, size.1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header()?.write_image_data(rgb)?;
+    Ok(bytes)
+}
+
+/// Width and height (pixels) of `text` in the plot font at `size` points.
+pub fn text_size(text: &str, size: f64) -> (u32, u32) {
+    ("sans-serif", size).into_font().box_size(text).unwrap_or((
+        text.chars().count() as u32 * size as u32 * 6 / 10,
+        size as u32,
+    ))
+}
+
+/// A label drawn on a figure: its text and its box in pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlacedLabel {
+    /// The text.
+    pub text: String,
+    /// Its box (pixels, y down) in the figure.
+    pub bbox: LabelBox,
+}
+
+/// The labels of a figure: those drawn (boxes disjoint by construction) and those left out
+/// because no free place was found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PlotLabels {
+    /// Labels drawn, with their boxes.
+    pub placed: Vec<PlacedLabel>,
+    /// Texts of the labels left out.
+    pub dropped: Vec<String>,
+}
+
+/// A label to place on a figure: text, size (points), colour and candidate corners.
+struct Pending {
+    text: String,
+    size: f64,
+    color: RGBColor,
+    candidates: Vec<(i32, i32)>,
+    /// Box drawn behind the text (labels over a colour map), if any.
+    background: Option<RGBAColor>,
+}
+
+/// Places `pending` labels (priority order) inside `area`, away from `obstacles`, draws the
+/// placed ones on `root` and returns them, with each pending label's box (`None`: left out).
+fn draw_labels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    pending: Vec<Pending>,
+    area: LabelBox,
+    obstacles: &[LabelBox],
+) -> DrawResult<(PlotLabels, Vec<Option<LabelBox>>)>
+where
+    DB::ErrorType: 'static,
+{
+    let requests: Vec<LabelRequest> = pending
+        .iter()
+        .map(|p| LabelRequest {
+            size: text_size(&p.text, p.size),
+            candidates: p.candidates.clone(),
+        })
+        .collect();
+    let mut labels = PlotLabels::default();
+    let boxes = place_labels(&requests, area, obstacles, 2);
+    for (p, b) in pending.into_iter().zip(boxes.iter().copied()) {
+        match b {
+            Some(bbox) => {
+                if let Some(bg) = p.background {
+                    root.draw(&Rectangle::new(
+                        [(bbox.x0 - 1, bbox.y0 - 1), (bbox.x1 + 1, bbox.y1 + 1)],
+                        bg.filled(),
+                    ))?;
+                }
+                root.draw(&Text::new(
+                    p.text.clone(),
+                    (bbox.x0, bbox.y0),
+                    ("sans-serif", p.size).into_font().color(&p.color),
+                ))?;
+                labels.placed.push(PlacedLabel { text: p.text, bbox });
+            }
+            None => labels.dropped.push(p.text),
         }
     }
+    Ok((labels, boxes))
+}
+
+/// The pixel box of a chart's plotting area.
+fn plot_box<DB: DrawingBackend, X: Ranged, Y: Ranged>(
+    chart: &ChartContext<'_, DB, Cartesian2d<X, Y>>,
+) -> LabelBox {
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    LabelBox {
+        x0: xr.start,
+        y0: yr.start,
+        x1: xr.end,
+        y1: yr.end,
+    }
+}
+
+/// `n` in Unicode subscript digits (Ω*₅).
+fn subscript(n: u32) -> String {
+    n.to_string()
+        .chars()
+        .map(|c| char::from_u32(0x2080 + c.to_digit(10).unwrap_or(0)).unwrap_or(c))
+        .collect()
 }
 
 /// Cell edges along x for sorted column positions: midpoints between neighbours,
@@ -256,7 +387,7 @@ where
 fn draw_interaction<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     d: &InteractionMapData,
-) -> DrawResult
+) -> DrawResult<PlotLabels>
 where
     DB::ErrorType: 'static,
 {
@@ -271,9 +402,16 @@ where
             .fold(0.0, f64::max)
     });
     let f_max = if f_max > 0.0 { f_max } else { 1.0 };
+    // The colour scale spans the amplitudes shown (the band), not the whole spectrum.
     let a_max = cols
         .iter()
-        .flat_map(|c| c.amplitude_m.iter().copied())
+        .flat_map(|c| {
+            c.amplitude_m
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| k as f64 * c.df_hz < f_max)
+                .map(|(_, &a)| a)
+        })
         .fold(0.0, f64::max);
     let top = if a_max > 0.0 { a_max.log10() } else { 0.0 };
     let bottom = top - d.dynamic_range_decades.max(0.1);
@@ -287,11 +425,11 @@ where
             } else {
                 format!("Interaction map ({})", d.subtitle)
             },
-            ("sans-serif", 22),
+            ("sans-serif", 20),
         )
         .margin(15)
         .x_label_area_size(45)
-        .y_label_area_size(65)
+        .y_label_area_size(70)
         .build_cartesian_2d(edges[0]..edges[edges.len() - 1], 0.0..f_max)?;
     chart
         .configure_mesh()
@@ -300,6 +438,8 @@ where
         .axis_desc_style(("sans-serif", 15))
         .x_desc("rotation speed Ω (rad/s)")
         .y_desc("frequency (Hz)")
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v:.0}"))
         .draw()?;
     for (i, c) in cols.iter().enumerate() {
         let (x0, x1) = (edges[i], edges[i + 1]);
@@ -314,12 +454,70 @@ where
                 0.0
             };
             Some(Rectangle::new(
-                [(x0, f0), (x1, f0 + c.df_hz)],
+                [(x0, f0), (x1, (f0 + c.df_hz).min(f_max))],
                 colormap(level).filled(),
             ))
         }))?;
     }
-    let (x_lo, x_hi) = (edges[0], edges[edges.len() - 1]);
+    let mut pending = interaction_lines(&mut chart, d, f_max)?;
+    let area = plot_box(&chart);
+    // Ω* labels go in rows below the top edge, beside their line.
+    for &w in &d.critical_speeds_rad_s {
+        let (x_lo, x_hi) = (edges[0], edges[edges.len() - 1]);
+        if w < x_lo || w > x_hi {
+            continue;
+        }
+        let text = format!("Ω* = {w:.0}");
+        let (tw, th) = text_size(&text, 14.0);
+        let (px, _) = chart.backend_coord(&(w, f_max));
+        let candidates = (0..8)
+            .flat_map(|k| {
+                let y = area.y0 + 4 + k * (th as i32 + 4);
+                [(px + 4, y), (px - 4 - tw as i32, y)]
+            })
+            .collect();
+        pending.push(Pending {
+            text,
+            size: 14.0,
+            color: RGBColor(255, 120, 120),
+            candidates,
+            background: Some(BLACK.mix(0.45)),
+        });
+    }
+    let (labels, _) = draw_labels(&root, pending, area, &[])?;
+    draw_colorbar(&bar, bottom, top, "log10 amplitude (m)")?;
+    root.present()?;
+    Ok(labels)
+}
+
+type MapChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Candidate label corners along a visible line segment from `a` to `b` (pixels), near its
+/// end first: above-left of the line, then below-right.
+fn along_segment(a: (i32, i32), b: (i32, i32), size: (u32, u32)) -> Vec<(i32, i32)> {
+    let (w, h) = (size.0 as i32, size.1 as i32);
+    [0.97, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2]
+        .iter()
+        .flat_map(|&t| {
+            let x = a.0 + (t * f64::from(b.0 - a.0)) as i32;
+            let y = a.1 + (t * f64::from(b.1 - a.1)) as i32;
+            [(x - w - 3, y - h - 3), (x + 3, y + 3)]
+        })
+        .collect()
+}
+
+/// Draws the engine-order lines, the mode curves and the critical-speed lines of an
+/// interaction map; returns their labels to place.
+fn interaction_lines<DB: DrawingBackend>(
+    chart: &mut MapChart<'_, DB>,
+    d: &InteractionMapData,
+    f_max: f64,
+) -> DrawResult<Vec<Pending>>
+where
+    DB::ErrorType: 'static,
+{
+    let (x_lo, x_hi) = (chart.x_range().start, chart.x_range().end);
+    let mut pending = Vec::new();
     for &e in &d.engine_orders {
         let e = f64::from(e);
         // Clip the line f = e Ω / 2π to the plot box.
@@ -327,38 +525,61 @@ where
         if x_end <= x_lo {
             continue;
         }
-        chart.draw_series(LineSeries::new(
-            [(x_lo, e * x_lo / TAU), (x_end, e * x_end / TAU)],
-            WHITE.stroke_width(1),
-        ))?;
-        // Label inside the box, a little before the line's end.
-        let x_label = x_lo + 0.9 * (x_end - x_lo);
-        chart.draw_series(std::iter::once(Text::new(
-            format!("EO {e}"),
-            (x_label, e * x_label / TAU + 0.02 * f_max),
-            ("sans-serif", 14).into_font().color(&WHITE),
-        )))?;
+        let (p0, p1) = ((x_lo, e * x_lo / TAU), (x_end, e * x_end / TAU));
+        chart.draw_series(LineSeries::new([p0, p1], WHITE.stroke_width(1)))?;
+        let text = format!("EO {e}");
+        let size = text_size(&text, 14.0);
+        pending.push(Pending {
+            candidates: along_segment(chart.backend_coord(&p0), chart.backend_coord(&p1), size),
+            text,
+            size: 14.0,
+            color: WHITE,
+            background: Some(BLACK.mix(0.45)),
+        });
+    }
+    let mode_color = RGBColor(255, 170, 200);
+    for m in &d.mode_lines {
+        let pts: Vec<(f64, f64)> = m
+            .speeds_rad_s
+            .iter()
+            .zip(&m.frequency_hz)
+            .map(|(&w, &f)| (w, f))
+            .filter(|&(w, f)| w >= x_lo && w <= x_hi && f <= f_max && f >= 0.0)
+            .collect();
+        let (Some(&first), Some(&last)) = (pts.first(), pts.last()) else {
+            continue;
+        };
+        chart.draw_series(DashedLineSeries::new(pts, 6, 4, mode_color.stroke_width(2)))?;
+        let size = text_size(&m.label, 13.0);
+        pending.push(Pending {
+            candidates: along_segment(
+                chart.backend_coord(&first),
+                chart.backend_coord(&last),
+                size,
+            ),
+            text: m.label.clone(),
+            size: 13.0,
+            color: mode_color,
+            background: Some(BLACK.mix(0.45)),
+        });
     }
     for &w in &d.critical_speeds_rad_s {
-        if w < x_lo || w > x_hi {
-            continue;
+        if w >= x_lo && w <= x_hi {
+            chart.draw_series(LineSeries::new(
+                [(w, 0.0), (w, f_max)],
+                RGBColor(255, 90, 90).stroke_width(2),
+            ))?;
         }
-        chart.draw_series(LineSeries::new([(w, 0.0), (w, f_max)], RED.stroke_width(2)))?;
-        chart.draw_series(std::iter::once(Text::new(
-            format!("Ω* = {w:.0}"),
-            (w, f_max * 0.97),
-            ("sans-serif", 14).into_font().color(&RED),
-        )))?;
     }
-    draw_colorbar(&bar, bottom, top, "log10 amplitude (m)")?;
-    root.present()?;
-    Ok(())
+    Ok(pending)
 }
 
 /// Interaction map: colour = log10 of the blade-tip spectrum amplitude over speed Ω
-/// (x, rad/s) and frequency (y, Hz), with engine-order lines f = E Ω/2π and the
-/// predicted critical speeds Ω* as vertical red lines.
-pub fn interaction_map(data: &InteractionMapData, path: &Path) -> Result<(), PlotError> {
+/// (x, rad/s) and frequency (y, Hz, up to `max_frequency_hz`), with engine-order lines
+/// f = E Ω/2π, mode curves (dashed) and the predicted critical speeds Ω* as vertical red
+/// lines. Labels never overlap: crowded ones are moved along their line or left out
+/// (returned in [`PlotLabels::dropped`]).
+pub fn interaction_map(data: &InteractionMapData, path: &Path) -> Result<PlotLabels, PlotError> {
     if data.columns.iter().all(|c| c.amplitude_m.is_empty()) {
         return Err(PlotError::Empty(
             "interaction map needs at least one spectrum",
@@ -372,7 +593,99 @@ pub fn interaction_map(data: &InteractionMapData, path: &Path) -> Result<(), Plo
     )
 }
 
-fn draw_campbell<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, d: &CampbellData) -> DrawResult
+/// Frequency (Hz) of the crossing of a critical speed: its casing mode, or 0 (the
+/// engine-order crossing of a casing without modes).
+fn crossing_hz(d: &CampbellData, n: u32) -> f64 {
+    d.casing
+        .iter()
+        .find(|c| c.nodal_diameter == n)
+        .map_or(0.0, |c| c.omega_rad_s / TAU)
+}
+
+/// The Campbell diagram's legend (top left of the plot): one colour per nodal diameter, the
+/// line styles, the marker. Returns its box, which labels then avoid.
+fn campbell_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    d: &CampbellData,
+    at: (i32, i32),
+) -> DrawResult<LabelBox>
+where
+    DB::ErrorType: 'static,
+{
+    let mut diameters: Vec<u32> = d
+        .casing
+        .iter()
+        .map(|c| c.nodal_diameter)
+        .chain(d.impeller.iter().map(|b| b.nodal_diameter))
+        .collect();
+    diameters.sort_unstable();
+    diameters.dedup();
+    let nd: Vec<String> = diameters.iter().map(|n| format!("n = {n}")).collect();
+    let mut rows: Vec<(String, Option<RGBColor>)> = vec![(nd.join("   "), None)];
+    rows.push(("solid: impeller (nΩ − ω_b)/2π".into(), None));
+    rows.push(("dashed: casing ω_c/2π".into(), None));
+    rows.push(("●  Ω*ₙ, C = mode compatibility (0–1)".into(), None));
+    if d.speed_band_rad_s.is_some() {
+        rows.push(("shaded: speeds of the sweep".into(), None));
+    }
+    let size = 13.0;
+    let line_h = text_size("Hg", size).1 as i32 + 4;
+    let width = rows
+        .iter()
+        .map(|(t, _)| text_size(t, size).0 as i32)
+        .max()
+        .unwrap_or(0)
+        + 16;
+    let bbox = LabelBox::at(at, (width as u32, (line_h * rows.len() as i32 + 8) as u32));
+    root.draw(&Rectangle::new(
+        [(bbox.x0, bbox.y0), (bbox.x1, bbox.y1)],
+        WHITE.mix(0.9).filled(),
+    ))?;
+    root.draw(&Rectangle::new(
+        [(bbox.x0, bbox.y0), (bbox.x1, bbox.y1)],
+        BLACK.stroke_width(1),
+    ))?;
+    // First row: the nodal diameters, each in its colour.
+    let mut x = bbox.x0 + 8;
+    for (n, t) in diameters.iter().zip(&nd) {
+        root.draw(&Text::new(
+            t.clone(),
+            (x, bbox.y0 + 4),
+            ("sans-serif", size).into_font().color(&nd_color(*n)),
+        ))?;
+        x += text_size(&format!("{t}   "), size).0 as i32;
+    }
+    for (i, (t, _)) in rows.iter().enumerate().skip(1) {
+        root.draw(&Text::new(
+            t.clone(),
+            (bbox.x0 + 8, bbox.y0 + 4 + line_h * i as i32),
+            ("sans-serif", size).into_font(),
+        ))?;
+    }
+    Ok(bbox)
+}
+
+/// Label candidates around a marker at `p`: right/left, above/below, then further away in
+/// rows of the label's height.
+fn around_marker(p: (i32, i32), size: (u32, u32)) -> Vec<(i32, i32)> {
+    let (w, h) = (size.0 as i32, size.1 as i32);
+    (0..14)
+        .flat_map(|k| {
+            let dy = k * (h + 3);
+            [
+                (p.0 + 7, p.1 - h - 5 - dy),
+                (p.0 + 7, p.1 + 5 + dy),
+                (p.0 - 7 - w, p.1 - h - 5 - dy),
+                (p.0 - 7 - w, p.1 + 5 + dy),
+            ]
+        })
+        .collect()
+}
+
+fn draw_campbell<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    d: &CampbellData,
+) -> DrawResult<PlotLabels>
 where
     DB::ErrorType: 'static,
 {
@@ -397,73 +710,140 @@ where
     let f_max = if f_max > 0.0 { 1.1 * f_max } else { 1.0 };
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
-        .caption("Campbell diagram (fixed frame)", ("sans-serif", 22))
+        .caption(
+            "Campbell diagram (fixed frame): critical speeds Ω*ₙ and mode compatibility C",
+            ("sans-serif", 20),
+        )
         .margin(15)
         .x_label_area_size(45)
-        .y_label_area_size(65)
+        .y_label_area_size(70)
         .build_cartesian_2d(x_lo..x_hi, 0.0..f_max)?;
     chart
         .configure_mesh()
+        .light_line_style(WHITE)
+        .bold_line_style(BLACK.mix(0.12))
         .label_style(("sans-serif", 13))
         .axis_desc_style(("sans-serif", 15))
         .x_desc("rotation speed Ω (rad/s)")
         .y_desc("frequency (Hz)")
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v:.0}"))
         .draw()?;
+    if let Some((a, b)) = d.speed_band_rad_s {
+        // A single-speed sweep still shows: at least 0.6 % of the axis wide.
+        let half = (0.5 * (b - a)).max(0.003 * (x_hi - x_lo));
+        let mid = 0.5 * (a + b);
+        chart.draw_series(std::iter::once(Rectangle::new(
+            [
+                ((mid - half).max(x_lo), 0.0),
+                ((mid + half).min(x_hi), f_max),
+            ],
+            RGBColor(255, 200, 120).mix(0.35).filled(),
+        )))?;
+    }
     for c in &d.casing {
         let color = nd_color(c.nodal_diameter);
         let f = hz(c.omega_rad_s);
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(x_lo, f), (x_hi, f)],
-                8,
-                5,
-                color.stroke_width(2),
-            ))?
-            .label(format!("casing ω_c, n = {}", c.nodal_diameter))
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
+        chart.draw_series(DashedLineSeries::new(
+            [(x_lo, f), (x_hi, f)],
+            8,
+            5,
+            color.stroke_width(2),
+        ))?;
     }
     for b in &d.impeller {
         let color = nd_color(b.nodal_diameter);
         let n = f64::from(b.nodal_diameter);
-        chart
-            // Only the part seen as a positive frequency in the fixed frame can meet ω_c > 0.
-            .draw_series(LineSeries::new(
-                d.speeds_rad_s
-                    .iter()
-                    .zip(&b.omega_rad_s)
-                    .map(|(&w, &wb)| (w, hz(n * w - wb)))
-                    .filter(|&(_, f)| f >= 0.0),
-                color.stroke_width(2),
-            ))?
-            .label(format!("impeller nΩ − ω_b, n = {}", b.nodal_diameter))
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2)));
-    }
-    for &(w, n) in &d.critical_speeds {
+        // Only the part seen as a positive frequency in the fixed frame can meet ω_c > 0.
         chart.draw_series(LineSeries::new(
-            [(w, 0.0), (w, f_max)],
-            BLACK.mix(0.5).stroke_width(1),
+            d.speeds_rad_s
+                .iter()
+                .zip(&b.omega_rad_s)
+                .map(|(&w, &wb)| (w, hz(n * w - wb)))
+                .filter(|&(_, f)| f >= 0.0),
+            color.stroke_width(2),
         ))?;
-        chart.draw_series(std::iter::once(Text::new(
-            format!("Ω* (n = {n}) = {w:.0}"),
-            (w, f_max * 0.97),
-            ("sans-serif", 13).into_font(),
-        )))?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()?;
+    let area = plot_box(&chart);
+    let legend = campbell_legend(&root, d, (area.x0 + 8, area.y0 + 8))?;
+    // Markers at the crossings, then labels: the most compatible first (the ones that
+    // matter), so crowding drops the least compatible.
+    let mut crit: Vec<&CriticalSpeed> = d
+        .critical_speeds
+        .iter()
+        .filter(|c| c.speed_rad_s >= x_lo && c.speed_rad_s <= x_hi)
+        .collect();
+    crit.sort_by(|a, b| {
+        b.compatibility
+            .total_cmp(&a.compatibility)
+            .then(a.speed_rad_s.total_cmp(&b.speed_rad_s))
+    });
+    let mut obstacles = vec![legend];
+    let mut pending = Vec::new();
+    for c in &crit {
+        let p = (c.speed_rad_s, crossing_hz(d, c.nodal_diameter));
+        let px = chart.backend_coord(&p);
+        chart.draw_series(std::iter::once(Circle::new(
+            p,
+            4,
+            nd_color(c.nodal_diameter).filled(),
+        )))?;
+        chart.draw_series(std::iter::once(Circle::new(p, 4, BLACK.stroke_width(1))))?;
+        obstacles.push(LabelBox::at((px.0 - 5, px.1 - 5), (11, 11)));
+        let text = format!(
+            "Ω*{} = {:.0} rad/s, C = {:.2}",
+            subscript(c.nodal_diameter),
+            c.speed_rad_s,
+            c.compatibility
+        );
+        let size = text_size(&text, 13.0);
+        pending.push((
+            px,
+            Pending {
+                candidates: around_marker(px, size),
+                text,
+                size: 13.0,
+                color: BLACK,
+                background: Some(WHITE.mix(0.8)),
+            },
+        ));
+    }
+    let markers: Vec<(i32, i32)> = pending.iter().map(|(p, _)| *p).collect();
+    let (labels, boxes) = draw_labels(
+        &root,
+        pending.into_iter().map(|(_, l)| l).collect(),
+        area,
+        &obstacles,
+    )?;
+    // Leader lines from each marker to a label set away from it.
+    for (p, b) in markers.iter().zip(&boxes) {
+        let Some(b) = b else { continue };
+        let q = (p.0.clamp(b.x0, b.x1 - 1), p.1.clamp(b.y0, b.y1 - 1));
+        if (q.0 - p.0).abs() + (q.1 - p.1).abs() > 12 {
+            root.draw(&PathElement::new([*p, q], BLACK.mix(0.5).stroke_width(1)))?;
+        }
+    }
+    if !labels.dropped.is_empty() {
+        let note = format!(
+            "{} more Ω* not labelled (listed with the figure)",
+            labels.dropped.len()
+        );
+        let (w, h) = text_size(&note, 13.0);
+        let at = (area.x1 - w as i32 - 6, area.y1 - h as i32 - 6);
+        root.draw(&Text::new(note, at, ("sans-serif", 13).into_font()))?;
+    }
     root.present()?;
-    Ok(())
+    Ok(labels)
 }
 
 /// Campbell diagram in the fixed frame: casing modes ω_c/2π (dashed, constant) and
 /// impeller backward waves seen from the fixed frame (nΩ − ω_b(Ω))/2π (solid), one
 /// colour per nodal diameter n; their crossings are the critical speeds Ω*ₙ
-/// (DESIGN.md §5), marked by vertical lines.
-pub fn campbell_diagram(data: &CampbellData, path: &Path) -> Result<(), PlotError> {
+/// (DESIGN.md §5), marked at the crossing and labelled with their speed and the
+/// compatibility C of the two mode shapes. Labels never overlap each other, the legend or
+/// the markers: crowded ones move away (with a leader line) or are left out, least
+/// compatible first ([`PlotLabels::dropped`]).
+pub fn campbell_diagram(data: &CampbellData, path: &Path) -> Result<PlotLabels, PlotError> {
     if data.speeds_rad_s.len() < 2 || (data.casing.is_empty() && data.impeller.is_empty()) {
         return Err(PlotError::Empty(
             "Campbell diagram needs ≥ 2 speeds and at least one mode",
@@ -471,7 +851,7 @@ pub fn campbell_diagram(data: &CampbellData, path: &Path) -> Result<(), PlotErro
     }
     render(
         path,
-        (1000, 700),
+        (1100, 750),
         |a| draw_campbell(a, data),
         |a| draw_campbell(a, data),
     )
@@ -577,7 +957,23 @@ pub fn interaction_data_from_records<'a>(
         max_frequency_hz: None,
         dynamic_range_decades: 4.0,
         subtitle: String::new(),
+        mode_lines: Vec::new(),
     }
+}
+
+/// The wear depth at each angle, the deepest over the meridian stations of a
+/// `[station][angle]` profile (empty without wear data).
+pub(crate) fn deepest_wear(profile: &[Vec<f64>]) -> Vec<f64> {
+    let n = profile.iter().map(Vec::len).max().unwrap_or(0);
+    (0..n)
+        .map(|k| {
+            profile
+                .iter()
+                .filter_map(|s| s.get(k))
+                .copied()
+                .fold(0.0, f64::max)
+        })
+        .collect()
 }
 
 /// Wear-map data from job records: per ok job, the wear at each angle maximised over the
@@ -587,16 +983,10 @@ pub fn wear_data_from_records<'a>(records: impl IntoIterator<Item = &'a JobRecor
         .into_iter()
         .filter_map(|rec| {
             let res = rec.result.as_ref()?;
-            let n = res.wear_profile_m.iter().map(Vec::len).max()?;
-            let wear_m = (0..n)
-                .map(|k| {
-                    res.wear_profile_m
-                        .iter()
-                        .filter_map(|s| s.get(k))
-                        .copied()
-                        .fold(0.0, f64::max)
-                })
-                .collect();
+            let wear_m = deepest_wear(&res.wear_profile_m);
+            if wear_m.is_empty() {
+                return None;
+            }
             Some(WearRow {
                 label: format!(
                     "Ω = {:.0} rad/s, μ = {}",
@@ -734,6 +1124,11 @@ mod tests {
             max_frequency_hz: None,
             dynamic_range_decades: 3.0,
             subtitle: "μ = 0.1".into(),
+            mode_lines: vec![ModeLine {
+                label: "blade mode 1, n = 2".into(),
+                speeds_rad_s: vec![500.0, 1500.0],
+                frequency_hz: vec![300.0, 320.0],
+            }],
         }
     }
 
@@ -752,7 +1147,12 @@ mod tests {
                     .map(|i| 800.0 + 1e-5 * (100.0 * i as f64).powi(2))
                     .collect(),
             }],
-            critical_speeds: vec![(1150.0, 2)],
+            critical_speeds: vec![CriticalSpeed {
+                speed_rad_s: 1150.0,
+                nodal_diameter: 2,
+                compatibility: 0.9,
+            }],
+            speed_band_rad_s: Some((1000.0, 1500.0)),
         };
         let wear = WearMapData {
             rows: (0..5)
@@ -784,8 +1184,9 @@ mod tests {
         }
         let svg = std::fs::read_to_string(d.join("map.svg")).unwrap();
         assert!(svg.contains("EO 2") && svg.contains("EO 4") && svg.contains("Ω* = 1000"));
+        assert!(svg.contains("blade mode 1, n = 2"));
         let svg = std::fs::read_to_string(d.join("campbell.svg")).unwrap();
-        assert!(svg.contains("casing ω_c, n = 2") && svg.contains("Ω* (n = 2) = 1150"));
+        assert!(svg.contains("casing ω_c/2π") && svg.contains("Ω*₂ = 1150 rad/s, C = 0.90"));
         // No temporary files left.
         let names: Vec<String> = std::fs::read_dir(&d)
             .unwrap()

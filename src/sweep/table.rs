@@ -14,7 +14,10 @@ use anyhow::{Context, Result};
 use arrow_array::builder::{
     ArrayBuilder, Float64Builder, ListBuilder, StringBuilder, StructBuilder, UInt32Builder,
 };
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::{
+    Array, ArrayRef, Float64Array, ListArray, RecordBatch, StringArray, StructArray, UInt32Array,
+    UInt64Array,
+};
 use arrow_schema::{DataType, Field, Fields, Schema};
 use parquet::arrow::ArrowWriter;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -23,7 +26,7 @@ use parquet::file::properties::WriterProperties;
 
 use crate::io::atomic::AtomicFile;
 use crate::sweep::checkpoint::{JobRecord, JobStatus};
-use crate::sweep::planner::CoatingValue;
+use crate::sweep::planner::{CoatingParams, CoatingValue, JobParams};
 
 /// Column name, unit (`"1"` = dimensionless, `""` = not a quantity) and description,
 /// in table order.
@@ -351,12 +354,235 @@ pub(crate) fn write_results(path: &Path, rows: &[(usize, JobRecord)]) -> Result<
 /// Reads a results table back (all batches).
 pub fn read_results(path: &Path) -> Result<Vec<RecordBatch>> {
     let file = File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let reader = ParquetRecordBatchReaderBuilder::try_new(file)?
+    let reader = ParquetRecordBatchReaderBuilder::try_new(file)
+        .with_context(|| format!("{}: not a Parquet table", path.display()))?
         .with_batch_size(1 << 16)
         .build()?;
     reader
         .map(|b| b.context("reading results.parquet"))
         .collect()
+}
+
+/// Column `name` of a results batch as type `T`, or an error naming the column.
+fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T> {
+    batch
+        .column_by_name(name)
+        .with_context(|| format!("column {name} missing"))?
+        .as_any()
+        .downcast_ref::<T>()
+        .with_context(|| format!("column {name} has an unexpected type"))
+}
+
+/// The `f64` of row `i` of a nullable column (`None` when null).
+fn opt_f64(a: &Float64Array, i: usize) -> Option<f64> {
+    a.is_valid(i).then(|| a.value(i))
+}
+
+/// The `f64` list of row `i` of a list column.
+fn f64_list(a: &ListArray, i: usize, name: &str) -> Result<Vec<f64>> {
+    let v = a.value(i);
+    let v = v
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .with_context(|| format!("column {name}: items are not float64"))?;
+    Ok(v.values().to_vec())
+}
+
+/// Coating setting of row `i` from its absolute / scale column pair.
+fn coating_value(abs: &Float64Array, scale: &Float64Array, i: usize) -> Option<CoatingValue> {
+    opt_f64(abs, i)
+        .map(CoatingValue::Absolute)
+        .or_else(|| opt_f64(scale, i).map(CoatingValue::Scale))
+}
+
+/// The job records `(job index, record)` of one results batch: the inverse of
+/// [`results_batch`] (every field of a record is a column of the table).
+fn records_of_batch(b: &RecordBatch) -> Result<Vec<(usize, JobRecord)>> {
+    let f = |name: &str| column::<Float64Array>(b, name);
+    let index = column::<UInt64Array>(b, "job_index")?;
+    let id = column::<StringArray>(b, "job_id")?;
+    let (speed, friction, clearance) = (f("speed_rad_s")?, f("friction")?, f("clearance_m")?);
+    let pair = |q: &str, unit: &str| -> Result<(&Float64Array, &Float64Array)> {
+        Ok((
+            f(&format!("coating_{q}_{unit}"))?,
+            f(&format!("coating_{q}_scale"))?,
+        ))
+    };
+    let young = pair("young", "pa")?;
+    let hardening = pair("hardening", "pa")?;
+    let yield_stress = pair("yield_stress", "pa")?;
+    let thickness = pair("thickness", "m")?;
+    let status = column::<StringArray>(b, "status")?;
+    let reason = column::<StringArray>(b, "reason")?;
+    let maxima: Vec<&Float64Array> = [
+        "max_blade_le_radial_m",
+        "max_blade_te_radial_m",
+        "max_casing_radial_m",
+        "max_contact_normal_force_n",
+        "max_coating_force_n",
+    ]
+    .into_iter()
+    .map(f)
+    .collect::<Result<_>>()?;
+    let wear = column::<ListArray>(b, "wear_profile_m")?;
+    let peaks = column::<ListArray>(b, "fourier_peaks")?;
+    let energy = column::<ListArray>(b, "strain_energy_per_nd_j")?;
+    let residual = f("residual_penetration_m")?;
+    let crit_speed = f("critical_speed_rad_s")?;
+    let crit_nd = column::<UInt32Array>(b, "critical_nodal_diameter")?;
+    let crit_compat = f("critical_compatibility")?;
+    let df = f("spectrum_df_hz")?;
+    let spectrum = column::<ListArray>(b, "spectrum_amplitude_m")?;
+    let wall = f("wall_time_s")?;
+    let mut out = Vec::with_capacity(b.num_rows());
+    for i in 0..b.num_rows() {
+        let params = JobParams {
+            speed_rad_s: speed.value(i),
+            friction: friction.value(i),
+            clearance_m: opt_f64(clearance, i),
+            coating: CoatingParams {
+                young: coating_value(young.0, young.1, i),
+                hardening: coating_value(hardening.0, hardening.1, i),
+                yield_stress: coating_value(yield_stress.0, yield_stress.1, i),
+                thickness: coating_value(thickness.0, thickness.1, i),
+            },
+        };
+        let (state, result) = match status.value(i) {
+            "ok" => (
+                JobStatus::Ok,
+                Some(result_of_row(
+                    i,
+                    &RowColumns {
+                        maxima: &maxima,
+                        wear,
+                        peaks,
+                        energy,
+                        residual,
+                        crit: (crit_speed, crit_nd, crit_compat),
+                        spectrum: (df, spectrum),
+                    },
+                )?),
+            ),
+            "failed" => (
+                JobStatus::Failed {
+                    reason: if reason.is_valid(i) {
+                        reason.value(i)
+                    } else {
+                        ""
+                    }
+                    .to_string(),
+                },
+                None,
+            ),
+            other => anyhow::bail!("row {i}: status {other:?} (expected \"ok\" or \"failed\")"),
+        };
+        out.push((
+            index.value(i) as usize,
+            JobRecord {
+                format_version: crate::sweep::checkpoint::JOB_RECORD_VERSION,
+                id: id.value(i).to_string(),
+                params,
+                status: state,
+                result,
+                wall_time_s: wall.value(i),
+            },
+        ));
+    }
+    Ok(out)
+}
+
+/// The result columns of a batch, for [`result_of_row`].
+struct RowColumns<'a> {
+    maxima: &'a [&'a Float64Array],
+    wear: &'a ListArray,
+    peaks: &'a ListArray,
+    energy: &'a ListArray,
+    residual: &'a Float64Array,
+    crit: (&'a Float64Array, &'a UInt32Array, &'a Float64Array),
+    spectrum: (&'a Float64Array, &'a ListArray),
+}
+
+/// The [`JobResult`](crate::sweep::JobResult) of row `i` of an ok job.
+fn result_of_row(i: usize, c: &RowColumns<'_>) -> Result<crate::sweep::JobResult> {
+    let need = |a: &Float64Array, name: &str| {
+        opt_f64(a, i).with_context(|| format!("row {i}: {name} is null for an ok job"))
+    };
+    let m: Vec<f64> = c
+        .maxima
+        .iter()
+        .map(|a| need(a, "a maximum"))
+        .collect::<Result<_>>()?;
+    let stations = c.wear.value(i);
+    let stations = stations
+        .as_any()
+        .downcast_ref::<ListArray>()
+        .context("column wear_profile_m: items are not lists")?;
+    let wear_profile_m = (0..stations.len())
+        .map(|s| f64_list(stations, s, "wear_profile_m"))
+        .collect::<Result<_>>()?;
+    let peaks = c.peaks.value(i);
+    let peaks = peaks
+        .as_any()
+        .downcast_ref::<StructArray>()
+        .context("column fourier_peaks: items are not structs")?;
+    let field = |k: usize| {
+        peaks
+            .column(k)
+            .as_any()
+            .downcast_ref::<Float64Array>()
+            .context("column fourier_peaks: fields are not float64")
+    };
+    let (pf, pe, pa) = (field(0)?, field(1)?, field(2)?);
+    let fourier_peaks = (0..peaks.len())
+        .map(|k| crate::sweep::FourierPeak {
+            frequency_hz: pf.value(k),
+            engine_order: pe.value(k),
+            amplitude_m: pa.value(k),
+        })
+        .collect();
+    let (cs, cn, cc) = c.crit;
+    let critical_speed = match (opt_f64(cs, i), cn.is_valid(i), opt_f64(cc, i)) {
+        (Some(speed_rad_s), true, Some(compatibility)) => Some(crate::sweep::CriticalSpeed {
+            speed_rad_s,
+            nodal_diameter: cn.value(i),
+            compatibility,
+        }),
+        _ => None,
+    };
+    let (df, amp) = c.spectrum;
+    let spectrum = match opt_f64(df, i) {
+        Some(df_hz) if amp.is_valid(i) => Some(crate::sweep::Spectrum {
+            df_hz,
+            amplitude_m: f64_list(amp, i, "spectrum_amplitude_m")?,
+        }),
+        _ => None,
+    };
+    Ok(crate::sweep::JobResult {
+        maxima: crate::sweep::Maxima {
+            blade_le_radial_m: m[0],
+            blade_te_radial_m: m[1],
+            casing_radial_m: m[2],
+            contact_normal_force_n: m[3],
+            coating_force_n: m[4],
+        },
+        wear_profile_m,
+        fourier_peaks,
+        strain_energy_per_nd_j: f64_list(c.energy, i, "strain_energy_per_nd_j")?,
+        residual_penetration_m: need(c.residual, "residual_penetration_m")?,
+        critical_speed,
+        spectrum,
+    })
+}
+
+/// Reads the job records `(job index, record)` back from a results table, in table order
+/// (the inverse of the writer: a table written from records reads back as those records).
+/// Errors name the file and the column or row at fault.
+pub fn read_records(path: &Path) -> Result<Vec<(usize, JobRecord)>> {
+    let mut out = Vec::new();
+    for b in read_results(path)? {
+        out.extend(records_of_batch(&b).with_context(|| format!("{}", path.display()))?);
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -385,5 +611,95 @@ mod tests {
         let b = results_batch(&[]).unwrap();
         assert_eq!(b.num_rows(), 0);
         assert_eq!(b.num_columns(), COLUMNS.len());
+    }
+
+    /// Records with every optional field set and unset, ok and failed.
+    fn sample_records() -> Vec<(usize, JobRecord)> {
+        use crate::sweep::{CriticalSpeed, FourierPeak, JobResult, Maxima, Spectrum};
+        let params = |w: f64| JobParams {
+            speed_rad_s: w,
+            friction: 0.15,
+            clearance_m: None,
+            coating: CoatingParams::default(),
+        };
+        let full = JobResult {
+            maxima: Maxima {
+                blade_le_radial_m: 1e-4,
+                blade_te_radial_m: 2e-4,
+                casing_radial_m: 3e-4,
+                contact_normal_force_n: 12.5,
+                coating_force_n: 0.5,
+            },
+            wear_profile_m: vec![vec![0.0, 1e-5, 2e-5], vec![3e-5, 0.0, 1e-6]],
+            fourier_peaks: vec![FourierPeak {
+                frequency_hz: 700.0,
+                engine_order: 2.0,
+                amplitude_m: 1e-5,
+            }],
+            strain_energy_per_nd_j: vec![1.0, 1e-20, 0.3],
+            residual_penetration_m: 1e-13,
+            critical_speed: Some(CriticalSpeed {
+                speed_rad_s: 6891.0,
+                nodal_diameter: 5,
+                compatibility: 0.135,
+            }),
+            spectrum: Some(Spectrum {
+                df_hz: 83.3,
+                amplitude_m: vec![1e-7, 2e-6, 3e-8],
+            }),
+        };
+        let mut coated = params(2500.0);
+        coated.clearance_m = Some(5e-4);
+        coated.coating = CoatingParams {
+            young: Some(CoatingValue::Scale(0.1)),
+            hardening: Some(CoatingValue::Absolute(1e9)),
+            yield_stress: None,
+            thickness: Some(CoatingValue::Absolute(2e-3)),
+        };
+        let rec = |id: &str, p, status, result| JobRecord {
+            format_version: crate::sweep::checkpoint::JOB_RECORD_VERSION,
+            id: id.into(),
+            params: p,
+            status,
+            result,
+            wall_time_s: 1.25,
+        };
+        vec![
+            (0, rec("a", params(2000.0), JobStatus::Ok, Some(full))),
+            (
+                1,
+                rec("b", coated, JobStatus::Ok, Some(JobResult::default())),
+            ),
+            (
+                2,
+                rec(
+                    "c",
+                    params(3000.0),
+                    JobStatus::Failed {
+                        reason: "diverged".into(),
+                    },
+                    None,
+                ),
+            ),
+        ]
+    }
+
+    #[test]
+    fn records_read_back_as_written() {
+        let dir = std::env::temp_dir().join(format!("rubscan-table-rt-{}", std::process::id()));
+        let path = dir.join("results.parquet");
+        let rows = sample_records();
+        write_results(&path, &rows).unwrap();
+        assert_eq!(read_records(&path).unwrap(), rows);
+        // A table without one of the columns is refused, naming the file and the column.
+        let batch = results_batch(&rows).unwrap();
+        let mut cut = batch.clone();
+        cut.remove_column(batch.schema().index_of("strain_energy_per_nd_j").unwrap());
+        let err = records_of_batch(&cut).unwrap_err().to_string();
+        assert!(err.contains("strain_energy_per_nd_j"), "{err}");
+        std::fs::write(&path, b"not parquet").unwrap();
+        let err = format!("{:#}", read_records(&path).unwrap_err());
+        assert!(err.contains("results.parquet"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

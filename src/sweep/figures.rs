@@ -1,0 +1,460 @@
+//! The report's per-job figures (paper Figs. 16–18): time histories of selected jobs
+//! overlaid with their wear profiles, and the strain energy per nodal diameter as bars.
+//! Like [`crate::sweep::plots`], every function only writes its `path` (PNG or SVG by
+//! extension), atomically. Axes in SI-derived units stated on each axis.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::sweep::plots::{PlotError, render, text_size};
+
+/// Distinct line colours for overlaid jobs (Tableau 10, readable on white).
+fn job_color(i: usize) -> RGBColor {
+    const TAB10: [(u8, u8, u8); 10] = [
+        (31, 119, 180),
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (140, 86, 75),
+        (227, 119, 194),
+        (127, 127, 127),
+        (188, 189, 34),
+        (23, 190, 207),
+    ];
+    let (r, g, b) = TAB10[i % TAB10.len()];
+    RGBColor(r, g, b)
+}
+
+/// The time series of one job drawn in [`time_histories`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct JobHistory {
+    /// Legend text (e.g. "job 3: Ω = 2500 rad/s, μ = 0.15").
+    pub label: String,
+    /// Sample times (s); empty when the job stored no series.
+    pub time_s: Vec<f64>,
+    /// Radial displacement of blade 0's trailing edge (m) at each sample.
+    pub blade_te_radial_m: Vec<f64>,
+    /// Radial displacement of the first casing probe (m) at each sample; empty if none.
+    pub casing_radial_m: Vec<f64>,
+    /// Normal contact force on blade 0 (N) at each sample.
+    pub normal_force_n: Vec<f64>,
+    /// Final wear depth (m) at θ_k = 360° k / n, the deepest over the meridian stations;
+    /// empty without a coating.
+    pub wear_m: Vec<f64>,
+}
+
+/// Input of [`time_histories`]: the jobs to overlay and the panel titles' probe names.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TimeHistoryData {
+    /// One entry per job, in legend order.
+    pub jobs: Vec<JobHistory>,
+    /// Name of the casing probe (e.g. "casing sector 0, contact node 4").
+    pub casing_probe: String,
+}
+
+/// Min/max envelope of `(t, y)` over `bins` equal time bins, as a polyline (each bin's
+/// extreme values in time order): keeps every peak of a series far longer than the plot is
+/// wide, which plain decimation would lose. Series no longer than `2·bins` come back whole.
+pub fn envelope(t: &[f64], y: &[f64], bins: usize) -> Vec<(f64, f64)> {
+    let n = t.len().min(y.len());
+    if n <= 2 * bins || bins == 0 {
+        return t.iter().zip(y).map(|(&a, &b)| (a, b)).collect();
+    }
+    let mut out = Vec::with_capacity(2 * bins);
+    for b in 0..bins {
+        let (lo, hi) = (b * n / bins, ((b + 1) * n / bins).max(b * n / bins + 1));
+        let (mut imin, mut imax) = (lo, lo);
+        for i in lo..hi {
+            if y[i] < y[imin] {
+                imin = i;
+            }
+            if y[i] > y[imax] {
+                imax = i;
+            }
+        }
+        let (a, c) = (imin.min(imax), imin.max(imax));
+        out.push((t[a], y[a]));
+        if c != a {
+            out.push((t[c], y[c]));
+        }
+    }
+    out
+}
+
+/// (min, max) of the finite values, padded by 5 % (a flat or empty series gets ±1).
+fn padded_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    // Empty (or all non-finite): lo = +∞ > hi = −∞.
+    if lo > hi {
+        return (-1.0, 1.0);
+    }
+    let pad = if hi > lo {
+        0.05 * (hi - lo)
+    } else {
+        lo.abs().max(1.0) * 0.05
+    };
+    (lo - pad, hi + pad)
+}
+
+/// One time-history panel: `get(job)` in `unit_scale` units against time.
+fn history_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    d: &TimeHistoryData,
+    title: &str,
+    y_desc: &str,
+    unit_scale: f64,
+    get: fn(&JobHistory) -> &[f64],
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let with: Vec<(usize, &JobHistory)> = d
+        .jobs
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| !get(j).is_empty() && !j.time_s.is_empty())
+        .collect();
+    let t_max = with
+        .iter()
+        .filter_map(|(_, j)| j.time_s.last().copied())
+        .fold(0.0, f64::max)
+        .max(1e-12);
+    let (y0, y1) = padded_range(
+        with.iter()
+            .flat_map(|(_, j)| get(j).iter().map(|v| v * unit_scale)),
+    );
+    // Enough decimals to tell five ticks apart.
+    let prec = (-(t_max / 5.0).log10()).ceil().clamp(0.0, 9.0) as usize;
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 15))
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..t_max, y0..y1)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .bold_line_style(BLACK.mix(0.1))
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+        .x_desc("time t (s)")
+        .y_desc(y_desc)
+        .x_label_formatter(&|v| format!("{v:.prec$}"))
+        .draw()?;
+    if with.is_empty() {
+        chart.draw_series(std::iter::once(Text::new(
+            "no time series stored (run with --timeseries)",
+            (0.05 * t_max, 0.5 * (y0 + y1)),
+            ("sans-serif", 14).into_font(),
+        )))?;
+    }
+    let width = area.dim_in_pixel().0 as usize;
+    for (i, j) in with {
+        let y: Vec<f64> = get(j).iter().map(|v| v * unit_scale).collect();
+        chart.draw_series(LineSeries::new(
+            envelope(&j.time_s, &y, width),
+            // Width 1: plotters draws wider polylines as polygons, which break up on the
+            // near-vertical segments of an envelope.
+            job_color(i).stroke_width(1),
+        ))?;
+    }
+    Ok(())
+}
+
+/// The wear panel: final wear depth (µm) against the angle (deg), one line per job.
+fn wear_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    d: &TimeHistoryData,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let top = d
+        .jobs
+        .iter()
+        .flat_map(|j| j.wear_m.iter().copied())
+        .fold(0.0, f64::max)
+        * 1e6;
+    let top = if top > 0.0 { 1.1 * top } else { 1.0 };
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            "(d) final wear profile (deepest along the chord)",
+            ("sans-serif", 15),
+        )
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..360.0, 0.0..top)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .bold_line_style(BLACK.mix(0.1))
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+        .x_desc("angle θ (deg)")
+        .y_desc("wear depth (µm)")
+        .draw()?;
+    if d.jobs.iter().all(|j| j.wear_m.is_empty()) {
+        chart.draw_series(std::iter::once(Text::new(
+            "no coating: no wear",
+            (20.0, 0.5 * top),
+            ("sans-serif", 14).into_font(),
+        )))?;
+    }
+    for (i, j) in d.jobs.iter().enumerate() {
+        let n = j.wear_m.len() as f64;
+        // Closed profile: θ = 360° repeats θ = 0.
+        let pts = j
+            .wear_m
+            .iter()
+            .chain(j.wear_m.first())
+            .enumerate()
+            .map(|(k, w)| (360.0 * k as f64 / n, w * 1e6));
+        chart.draw_series(LineSeries::new(pts, job_color(i).stroke_width(2)))?;
+    }
+    Ok(())
+}
+
+/// The legend strip under the panels: one coloured line and label per job, in columns.
+fn legend_strip<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    labels: &[String],
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let (w, _) = area.dim_in_pixel();
+    let col_w = labels
+        .iter()
+        .map(|l| text_size(l, 13.0).0 + 40)
+        .max()
+        .unwrap_or(100)
+        .max(100);
+    let per_row = (w / col_w).max(1) as usize;
+    for (i, l) in labels.iter().enumerate() {
+        let x = 20 + (i % per_row) as i32 * col_w as i32;
+        let y = 8 + (i / per_row) as i32 * 20;
+        area.draw(&PathElement::new(
+            [(x, y + 8), (x + 24, y + 8)],
+            job_color(i).stroke_width(3),
+        ))?;
+        area.draw(&Text::new(
+            l.clone(),
+            (x + 30, y),
+            ("sans-serif", 13).into_font(),
+        ))?;
+    }
+    Ok(())
+}
+
+/// Rows of the legend strip for `n` labels, the widest `widest` pixels, in `width` pixels.
+fn legend_rows(n: usize, widest: u32, width: u32) -> u32 {
+    let per_row = (width / (widest + 40).max(100)).max(1) as usize;
+    n.div_ceil(per_row) as u32
+}
+
+fn draw_histories<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    d: &TimeHistoryData,
+    legend_h: u32,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let root = root.titled(
+        "Time histories of selected jobs (paper Figs. 16–17)",
+        ("sans-serif", 20),
+    )?;
+    let (h, _) = (root.dim_in_pixel().1, 0);
+    let (panels, legend) = root.split_vertically(h.saturating_sub(legend_h));
+    let cells = panels.split_evenly((2, 2));
+    history_panel(
+        &cells[0],
+        d,
+        "(a) radial displacement, blade 0 trailing edge",
+        "displacement (mm)",
+        1e3,
+        |j| &j.blade_te_radial_m,
+    )?;
+    history_panel(
+        &cells[1],
+        d,
+        &format!("(b) radial displacement, {}", d.casing_probe),
+        "displacement (mm)",
+        1e3,
+        |j| &j.casing_radial_m,
+    )?;
+    history_panel(
+        &cells[2],
+        d,
+        "(c) normal contact force, blade 0",
+        "force (N)",
+        1.0,
+        |j| &j.normal_force_n,
+    )?;
+    wear_panel(&cells[3], d)?;
+    let labels: Vec<String> = d.jobs.iter().map(|j| j.label.clone()).collect();
+    legend_strip(&legend, &labels)?;
+    root.present()?;
+    Ok(())
+}
+
+/// Four panels in the style of the paper's Figs. 16–17, one colour per job: (a) blade 0
+/// trailing-edge radial displacement (mm), (b) casing probe radial displacement (mm),
+/// (c) normal contact force on blade 0 (N), all against time (s), and (d) the final wear
+/// profile (µm) against the angle (deg). Long series are drawn as their min/max envelope
+/// ([`envelope`]), so no peak is lost.
+pub fn time_histories(data: &TimeHistoryData, path: &Path) -> Result<(), PlotError> {
+    if data.jobs.is_empty() {
+        return Err(PlotError::Empty("time histories need at least one job"));
+    }
+    let width = 1300;
+    let widest = data
+        .jobs
+        .iter()
+        .map(|j| text_size(&j.label, 13.0).0)
+        .max()
+        .unwrap_or(0);
+    let legend_h = 16 + 20 * legend_rows(data.jobs.len(), widest, width);
+    render(
+        path,
+        (width, 860 + legend_h),
+        |a| draw_histories(a, data, legend_h),
+        |a| draw_histories(a, data, legend_h),
+    )
+}
+
+/// Input of [`nd_energy_bars`]: per job, the strain energy per nodal diameter.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NdEnergyData {
+    /// Legend text and energies (J) for nodal diameters 0, 1, … of each job.
+    pub jobs: Vec<(String, Vec<f64>)>,
+}
+
+fn draw_nd_energy<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    d: &NdEnergyData,
+    legend_h: u32,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let n_nd = d.jobs.iter().map(|(_, e)| e.len()).max().unwrap_or(1);
+    let e_max = d
+        .jobs
+        .iter()
+        .flat_map(|(_, e)| e.iter().copied())
+        .fold(0.0, f64::max);
+    // Twelve decades below the largest energy: enough to show a 10× dominance and the
+    // round-off floor of the odd diameters without flattening the bars that matter.
+    let top = if e_max > 0.0 {
+        e_max.log10().ceil()
+    } else {
+        0.0
+    };
+    let bottom = top - 12.0;
+    root.fill(&WHITE)?;
+    let (h, _) = (root.dim_in_pixel().1, 0);
+    let (main, legend) = root.split_vertically(h.saturating_sub(legend_h));
+    let mut chart = ChartBuilder::on(&main)
+        .caption(
+            "Impeller strain energy per nodal diameter, mean over the steady window (paper Fig. 18)",
+            ("sans-serif", 18),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(-0.5..(n_nd as f64 - 0.5), bottom..top)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .light_line_style(WHITE)
+        .bold_line_style(BLACK.mix(0.12))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 15))
+        .x_desc("nodal diameter n_d")
+        .y_desc("log10 strain energy (J)")
+        .x_labels(n_nd)
+        .x_label_formatter(&|v| {
+            let r = v.round();
+            if (v - r).abs() < 1e-6 && r >= 0.0 {
+                format!("{r:.0}")
+            } else {
+                String::new()
+            }
+        })
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .draw()?;
+    let k = d.jobs.len().max(1) as f64;
+    let bar = 0.8 / k;
+    for (j, (_, e)) in d.jobs.iter().enumerate() {
+        let color = job_color(j);
+        chart.draw_series(
+            e.iter()
+                .enumerate()
+                .filter(|(_, v)| **v > 0.0)
+                .map(|(nd, v)| {
+                    let x0 = nd as f64 - 0.4 + j as f64 * bar;
+                    Rectangle::new(
+                        [(x0, bottom), (x0 + bar * 0.9, v.log10().max(bottom))],
+                        color.filled(),
+                    )
+                }),
+        )?;
+    }
+    let labels: Vec<String> = d.jobs.iter().map(|(l, _)| l.clone()).collect();
+    legend_strip(&legend, &labels)?;
+    root.present()?;
+    Ok(())
+}
+
+/// Bars of the impeller strain energy per nodal diameter (J, log scale), one bar group per
+/// diameter and one colour per job (paper Fig. 18).
+pub fn nd_energy_bars(data: &NdEnergyData, path: &Path) -> Result<(), PlotError> {
+    if data.jobs.iter().all(|(_, e)| e.is_empty()) {
+        return Err(PlotError::Empty("no strain energy per nodal diameter"));
+    }
+    let width = 1100;
+    let widest = data
+        .jobs
+        .iter()
+        .map(|(l, _)| text_size(l, 13.0).0)
+        .max()
+        .unwrap_or(0);
+    let legend_h = 16 + 20 * legend_rows(data.jobs.len(), widest, width);
+    render(
+        path,
+        (width, 620 + legend_h),
+        |a| draw_nd_energy(a, data, legend_h),
+        |a| draw_nd_energy(a, data, legend_h),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn envelope_keeps_every_extreme() {
+        let n = 100_000;
+        let t: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let mut y: Vec<f64> = t.iter().map(|x| (x * 0.01).sin()).collect();
+        y[54_321] = 5.0; // a single-sample spike
+        y[7] = -3.0;
+        let e = envelope(&t, &y, 500);
+        assert!(e.len() <= 1000);
+        assert!(e.contains(&(54_321.0, 5.0)) && e.contains(&(7.0, -3.0)));
+        // In time order.
+        assert!(e.windows(2).all(|w| w[0].0 < w[1].0));
+        // Short series come back whole.
+        assert_eq!(envelope(&t[..10], &y[..10], 500).len(), 10);
+    }
+}
