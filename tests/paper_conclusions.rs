@@ -8,6 +8,7 @@
 //! wear, the maxima and the post-release window are those of the full run's contact phase.
 
 use rubscan::SimulationOutput;
+use rubscan::model::mesh::ImpellerGeometry;
 use rubscan::sweep::simulator::tip_rows;
 use rubscan::sweep::{CoatingValue, JobParams, parse_spec, plan};
 use rubscan::{ModelSimulator, simulate};
@@ -114,6 +115,37 @@ fn max_abs_between(time: &[f64], series: &[Vec<f64>], from: f64, to: f64) -> f64
 fn max_blade(out: &SimulationOutput) -> f64 {
     let all = |s: &[Vec<f64>]| max_abs_between(&out.time, s, f64::NEG_INFINITY, f64::INFINITY);
     all(&out.blade_le_radial).max(all(&out.blade_te_radial))
+}
+
+/// The coated jobs keep the built-in tip clearance to the unworn coating on every row: each
+/// tip starts `tip_clearance + e_abr` from the casing, the gap measured along the casing normal
+/// (radial at the leading edge, axial at the radial outlet). A radial shift by e_abr left the
+/// trailing-edge tips 0.99 mm from the casing, 1 mm deep inside the 2 mm coating.
+#[test]
+fn coated_tips_start_at_the_clearance_from_the_unworn_coating() {
+    let mut v = shipped_spec("case_study_1");
+    // Ten steps: the load (ramped over them) moves the casing by ~1e-7 m at most.
+    v["scenario"]["duration_s"] = 1e-6.into();
+    v["scenario"]["load_ramp_s"] = 1e-6.into();
+    v["numerics"]["decimation"] = 1.into();
+    v["grid"]["friction"] = [0.15].as_slice().into();
+    v["grid"]["coating"]["young"]["scale"] = [1.0].as_slice().into();
+    v["grid"]["coating"]["hardening"]["scale"] = [1.0].as_slice().into();
+    let rows = 5;
+    v["scenario"]["probes"] = (0..rows)
+        .map(|r| serde_json::json!({"blade": 0, "row": r, "quantity": "gap"}))
+        .collect::<Vec<_>>()
+        .into();
+    let run = &run_all(&v)[0];
+    assert_eq!(run.rows.len(), rows);
+    let coating = run.out.summary.coating.as_ref().unwrap();
+    let expected = ImpellerGeometry::default().tip_clearance + coating.thickness;
+    let gaps: Vec<f64> = run.out.probes.iter().map(|p| p[0]).collect();
+    eprintln!("initial gaps (m): {gaps:?}, expected {expected:e} m");
+    for (r, g) in gaps.iter().enumerate() {
+        assert!((g - expected).abs() < 1e-5, "row {r}: gap {g:e} m");
+    }
+    assert_eq!(coating.coating_steps, 0, "a tip starts inside the coating");
 }
 
 /// §5.1: "the lower μ, the higher the wear level" — the worn volume of the nominal coating
