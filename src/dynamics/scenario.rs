@@ -135,8 +135,9 @@ pub struct Case {
     /// Casing load (flexible casing only).
     #[serde(default)]
     pub load: Option<LobeLoad>,
-    /// Radial offset (m) added to the blade tips' reference radius, per impeller contact row
-    /// (empty = none); positive values reduce the clearance.
+    /// Offset (m) of the blade tips toward the casing, per impeller contact row (empty =
+    /// none); positive values reduce the clearance. Along the casing surface's normal at each
+    /// tip's closest point at rest (the direction of the gap), radial for an imposed-gap casing.
     #[serde(default)]
     pub clearance_offset: Vec<f64>,
     /// Casing contact nodes `[sector, node]` whose radial displacement is recorded.
@@ -169,7 +170,7 @@ fn default_blade_thickness() -> f64 {
 /// Geometry: the coating of thickness `material.thickness` = e_abr lies on the casing contact
 /// surface, so a blade-tip node touches the *unworn* coating when its gap to the casing is
 /// e_abr. The casing models' clearances are to the casing itself: to keep a nominal clearance to
-/// the coating surface, shift the tips inward with `Case::clearance_offset = −e_abr` (per row).
+/// the coating surface, shift the tips away from the casing with `Case::clearance_offset = −e_abr` (per row).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CoatingCase {

@@ -8,8 +8,8 @@
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
-    CasingSpline, GapBounds, NodeProjectionError, Projection, SurfaceParam, friction_direction,
-    project_nodes,
+    CasingSpline, GapBounds, NodeProjectionError, Projection, SurfaceParam, closest_point,
+    friction_direction, project_nodes,
 };
 use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve};
@@ -244,14 +244,11 @@ impl Blades {
             .iter()
             .map(|c| radial(&c.position))
             .collect();
+        // The clearance offsets are applied once the casing is known (`shift_tips`).
         let reference: Vec<Vector3<f64>> = impeller
             .contact_nodes
             .iter()
-            .enumerate()
-            .map(|(j, c)| {
-                let off = case.clearance_offset.get(c.row).copied().unwrap_or(0.0);
-                Vector3::from(c.position) + radial[j] * off
-            })
+            .map(|c| Vector3::from(c.position))
             .collect();
         let le = (0..n_contact).min_by_key(|&j| rows[j]).unwrap_or(0);
         let te = (0..n_contact).max_by_key(|&j| rows[j]).unwrap_or(0);
@@ -284,6 +281,54 @@ impl Blades {
                 Boundary::Massless => vec![Vector3::zeros(); nn],
             },
         })
+    }
+
+    /// Moves tip node `j` of every blade by `Case::clearance_offset[row of j]` along the unit
+    /// direction `dir[j]` (blade frame), and restarts the previous-step nodes from there.
+    fn shift_tips(&mut self, offsets: &[f64], dir: &[Vector3<f64>]) {
+        if offsets.is_empty() {
+            return;
+        }
+        for (j, x) in self.reference.iter_mut().enumerate() {
+            *x += dir[j] * offsets[self.rows[j]];
+        }
+        for s in 0..self.n_blades {
+            for j in 0..self.n_contact {
+                self.nodes_prev[s * self.n_contact + j] = self.rot[s] * self.reference[j];
+            }
+        }
+    }
+
+    /// The clearance offsets against a casing surface: along the surface normal at each tip
+    /// node's closest point on the casing at rest, the direction in which the gap, the tip
+    /// clearance of the built-in models and the coating thickness are measured. (A radial
+    /// shift changes the gap only by its normal part: nothing at a radial outlet, where the
+    /// normal is axial, so a coating's thickness would not be added to the clearance there.)
+    fn shift_tips_toward(&mut self, case: &Case, side: &CasingSide) -> Result<(), SimError> {
+        if case.clearance_offset.is_empty() {
+            return Ok(());
+        }
+        // At t = 0 blade 0's frame is the fixed frame; the casing at rest is cyclic, so one
+        // blade's directions hold for all.
+        let dir = (self.reference.iter())
+            .enumerate()
+            .map(|(j, x)| {
+                closest_point(
+                    &side.spline,
+                    &side.q,
+                    *x,
+                    None,
+                    case.numerics.newton_tolerance,
+                )
+                .map(|p| -p.normal)
+                .map_err(|e| SimError::Projection {
+                    time: 0.0,
+                    reason: format!("tip node {j} on the casing at rest: {e}"),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        self.shift_tips(&case.clearance_offset, &dir);
+        Ok(())
     }
 
     /// Tip nodes in the fixed frame, `Γ = R(Ωt) R(θ_s)(X_j + u_(s,j))`, of the current state.
@@ -1023,6 +1068,8 @@ impl<'a> Simulation<'a> {
         let mut blades = Blades::new(case, h, impeller, &st_i)?;
         let mut casing = match casing {
             CasingModel::ImposedGap(g) => {
+                // No surface: the offsets are radial (the profile holds the clearance).
+                blades.shift_tips(&case.clearance_offset, &blades.radial.clone());
                 let offsets: Vec<Vector3<f64>> = (blades.reference.iter())
                     .zip(&impeller.contact_nodes)
                     .map(|(x, c)| x - Vector3::from(c.position))
@@ -1033,7 +1080,11 @@ impl<'a> Simulation<'a> {
                         .map_err(|e| SimError::InvalidCase(format!("imposed-gap casing: {e}")))?,
                 )
             }
-            model => Casing::Surface(CasingSide::new(case, h, model, st_c.as_ref())?),
+            model => {
+                let side = CasingSide::new(case, h, model, st_c.as_ref())?;
+                blades.shift_tips_toward(case, &side)?;
+                Casing::Surface(side)
+            }
         };
         set_casing_load(case, h, st_c.as_ref(), &mut casing)?;
         set_initial_velocities(case, &st_i, st_c.as_ref(), &mut blades, &mut casing)?;
