@@ -728,6 +728,38 @@ fn rotor37_benchmark_runs_and_reports_its_figures() {
     assert!((massless.y_order - mass.y_order).abs() < 0.05);
 }
 
+/// `rubscan simulate` gives the benchmark's figures bit for bit whatever faer's parallelism
+/// when it is called (6 revolutions, the paper's formulation).
+#[test]
+fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
+    let Some(imp) = imported() else { return };
+    let work = std::env::temp_dir().join(format!("rubscan-rotor37-threads-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&work);
+    std::fs::create_dir_all(&work).unwrap();
+    let _guard = Scratch(work.clone());
+    let rom_path = work.join("blade_benchmark.rom");
+    rom_file::save(&imp.rom, &rom_path).expect("ROM written");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("sweeps/rotor37_benchmark.json")).unwrap();
+    let mut spec: serde_json::Value = serde_json::from_str(&text).unwrap();
+    spec["models"]["impeller"]["rom"] = serde_json::json!(rom_path);
+    spec["scenario"]["duration_s"] = serde_json::json!(6.0 * 2.0 * std::f64::consts::PI / 1344.0);
+    spec["scenario"]["revolution_report"] =
+        serde_json::json!({"peak_to_peak_revolutions": 2, "mean_revolutions": 4});
+    let spec_path = work.join("benchmark.json");
+    std::fs::write(&spec_path, serde_json::to_string(&spec).unwrap()).unwrap();
+    let figures = |par: faer::Par, tag: &str| {
+        faer::set_global_parallelism(par);
+        let dir = rubscan::app::simulate(&spec_path, 0, Some(&work.join(tag))).expect("run");
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
+                .unwrap();
+        summary["probes"].clone()
+    };
+    let parallel = figures(faer::Par::rayon(2), "parallel");
+    assert_eq!(parallel, figures(faer::Par::Seq, "sequential"));
+}
+
 /// What the benchmark test compares of one run.
 struct BenchmarkFigures {
     peak_to_peak: f64,
