@@ -362,13 +362,19 @@ pub fn plan_text(spec_path: &Path) -> Result<String, AppError> {
             serde_json::to_string(&p.coating).map_err(anyhow::Error::from)?
         );
     }
-    let _ = writeln!(
-        s,
-        "{} jobs; {} steps per job, {} steps in all",
-        plan.jobs.len(),
-        plan.steps_per_job.map_or("?".into(), |n| n.to_string()),
-        plan.total_steps.map_or("?".into(), |n| n.to_string())
-    );
+    let _ = match (plan.steps_per_job, plan.total_steps) {
+        (Some(per_job), Some(total)) => writeln!(
+            s,
+            "{} jobs; {per_job} steps per job, {total} steps in all",
+            plan.jobs.len()
+        ),
+        _ => writeln!(
+            s,
+            "{} jobs; steps per job from the default time step at each speed (`rubscan model \
+             info` prints it)",
+            plan.jobs.len()
+        ),
+    };
     Ok(s)
 }
 
