@@ -692,12 +692,8 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
 #[test]
 fn rotor37_benchmark_runs_and_reports_its_figures() {
     let Some(imp) = imported() else { return };
-    let work = std::env::temp_dir().join(format!("rubscan-rotor37-bench-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&work);
-    std::fs::create_dir_all(&work).unwrap();
-    let _guard = Scratch(work.clone());
-    let rom_path = work.join("blade_benchmark.rom");
-    rom_file::save(&imp.rom, &rom_path).expect("ROM written");
+    let (guard, rom_path) = saved_rom(imp, "bench");
+    let work = guard.0.clone();
     // The paper's formulation as the README runs it, then the massless boundary at 1000
     // steps per revolution (NLstep's resolution), against it.
     let mass = run_benchmark(&rom_path, &work.join("mass"), None);
@@ -733,16 +729,9 @@ fn rotor37_benchmark_runs_and_reports_its_figures() {
 #[test]
 fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
     let Some(imp) = imported() else { return };
-    let work = std::env::temp_dir().join(format!("rubscan-rotor37-threads-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&work);
-    std::fs::create_dir_all(&work).unwrap();
-    let _guard = Scratch(work.clone());
-    let rom_path = work.join("blade_benchmark.rom");
-    rom_file::save(&imp.rom, &rom_path).expect("ROM written");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(root.join("sweeps/rotor37_benchmark.json")).unwrap();
-    let mut spec: serde_json::Value = serde_json::from_str(&text).unwrap();
-    spec["models"]["impeller"]["rom"] = serde_json::json!(rom_path);
+    let (guard, rom_path) = saved_rom(imp, "threads");
+    let work = guard.0.clone();
+    let mut spec = benchmark_spec(&rom_path);
     spec["scenario"]["duration_s"] = serde_json::json!(6.0 * 2.0 * std::f64::consts::PI / 1344.0);
     spec["scenario"]["revolution_report"] =
         serde_json::json!({"peak_to_peak_revolutions": 2, "mean_revolutions": 4});
@@ -760,6 +749,25 @@ fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
     assert_eq!(parallel, figures(faer::Par::Seq, "sequential"));
 }
 
+/// A scratch directory (removed on drop) holding the imported ROM as `blade_benchmark.rom`.
+fn saved_rom(imp: &Imported, tag: &str) -> (Scratch, PathBuf) {
+    let work = std::env::temp_dir().join(format!("rubscan-rotor37-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&work);
+    std::fs::create_dir_all(&work).unwrap();
+    let rom_path = work.join("blade_benchmark.rom");
+    rom_file::save(&imp.rom, &rom_path).expect("ROM written");
+    (Scratch(work), rom_path)
+}
+
+/// `sweeps/rotor37_benchmark.json` on the ROM at `rom_path`.
+fn benchmark_spec(rom_path: &Path) -> serde_json::Value {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("sweeps/rotor37_benchmark.json")).unwrap();
+    let mut spec: serde_json::Value = serde_json::from_str(&text).unwrap();
+    spec["models"]["impeller"]["rom"] = serde_json::json!(rom_path);
+    spec
+}
+
 /// What the benchmark test compares of one run.
 struct BenchmarkFigures {
     peak_to_peak: f64,
@@ -773,10 +781,7 @@ struct BenchmarkFigures {
 /// Runs `sweeps/rotor37_benchmark.json` on the ROM at `rom_path` into `out`, with a massless
 /// boundary at step `massless_h` (s) when given; prints and returns its figures.
 fn run_benchmark(rom_path: &Path, out: &Path, massless_h: Option<f64>) -> BenchmarkFigures {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(root.join("sweeps/rotor37_benchmark.json")).unwrap();
-    let mut spec: serde_json::Value = serde_json::from_str(&text).unwrap();
-    spec["models"]["impeller"]["rom"] = serde_json::json!(rom_path);
+    let mut spec = benchmark_spec(rom_path);
     if let Some(h) = massless_h {
         spec["numerics"] =
             serde_json::json!({"time_step_s": h, "decimation": 1, "boundary": "massless"});

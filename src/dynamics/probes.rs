@@ -442,15 +442,7 @@ fn resolve_one(
         let target = ProbeTarget::Blade { blade, index };
         (target, p, blade_prefix(blade, format!("contact{id}")))
     } else if let Some(sector) = s.sector {
-        let rom = casing.ok_or_else(|| {
-            (
-                "sector",
-                "a casing probe needs a flexible casing (a rigid casing does not move)".to_string(),
-            )
-        })?;
-        if s.blade.is_some() {
-            return Err(("blade", "a casing probe takes `sector`, not `blade`".into()));
-        }
+        let rom = casing_of_probe(s, casing)?;
         let row = s
             .row
             .ok_or(("row", "a casing probe needs `row`".to_string()))?;
@@ -477,6 +469,24 @@ fn resolve_one(
         (target, p, format!("blade{blade}_row{row}"))
     };
     finish_probe(s, target, &position, prefix)
+}
+
+/// The flexible casing a probe with `sector` reads; an error for a rigid casing or a probe
+/// that also names a `blade`.
+fn casing_of_probe<'a>(
+    s: &ProbeSpec,
+    casing: Option<&'a CyclicRom>,
+) -> Result<&'a CyclicRom, FieldError> {
+    let rom = casing.ok_or_else(|| {
+        (
+            "sector",
+            "a casing probe needs a flexible casing (a rigid casing does not move)".to_string(),
+        )
+    })?;
+    if s.blade.is_some() {
+        return Err(("blade", "a casing probe takes `sector`, not `blade`".into()));
+    }
+    Ok(rom)
 }
 
 /// A named recovery node of a built-in model: of the impeller (blade `blade`, default 0), or of
@@ -507,15 +517,7 @@ fn named_point(
         })
     };
     if let Some(sector) = s.sector {
-        let rom = casing.ok_or_else(|| {
-            (
-                "sector",
-                "a casing probe needs a flexible casing (a rigid casing does not move)".to_string(),
-            )
-        })?;
-        if s.blade.is_some() {
-            return Err(("blade", "a casing probe takes `sector`, not `blade`".into()));
-        }
+        let rom = casing_of_probe(s, casing)?;
         check_index("sector", sector, rom.n_sectors, "casing sectors")?;
         let index = index(rom, "casing")?;
         let target = ProbeTarget::CasingRecovery { sector, index };

@@ -1045,15 +1045,9 @@ impl<'a> Simulation<'a> {
         casing: &CasingModel,
     ) -> Result<Self, SimError> {
         let num = &case.numerics;
-        let st_i = Structure::new(impeller, case.omega)?
-            .with_boundary(num.boundary)
-            .with_mode_cutoff(num.mode_cutoff_hz);
+        let st_i = Structure::new(impeller, case.omega)?.with_numerics(num);
         let st_c = match casing {
-            CasingModel::Flexible(rom) => Some(
-                Structure::new(rom, 0.0)?
-                    .with_boundary(num.boundary)
-                    .with_mode_cutoff(num.mode_cutoff_hz),
-            ),
+            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?.with_numerics(num)),
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
         let h =

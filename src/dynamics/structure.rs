@@ -41,7 +41,7 @@
 //! terms the static modes' mass becomes `ω²h²/2` of theirs and their damping `ω² h`; the
 //! stiffness is unchanged. Both kernels take that structure as it is.
 
-use crate::dynamics::numerics::Boundary;
+use crate::dynamics::numerics::{Boundary, Numerics};
 use crate::model::eigen::{EigenError, symmetric_gen_eigen};
 use crate::model::rom::{CyclicRom, Damping, RomError};
 use nalgebra::DMatrix;
@@ -249,6 +249,12 @@ impl Structure {
             self.omega_max = self.dynamic_omega_max();
         }
         self
+    }
+
+    /// The structure the numerics `n` integrate: its boundary model, then its mode cutoff.
+    pub fn with_numerics(self, n: &Numerics) -> Self {
+        self.with_boundary(n.boundary)
+            .with_mode_cutoff(n.mode_cutoff_hz)
     }
 
     /// With a massless boundary, also the modes above `cutoff_hz` (Hz) static in every nodal

@@ -8,25 +8,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::sweep::plots::{PlotError, render, text_size};
-
-/// Distinct line colours for overlaid jobs (Tableau 10, readable on white).
-fn job_color(i: usize) -> RGBColor {
-    const TAB10: [(u8, u8, u8); 10] = [
-        (31, 119, 180),
-        (255, 127, 14),
-        (44, 160, 44),
-        (214, 39, 40),
-        (148, 103, 189),
-        (140, 86, 75),
-        (227, 119, 194),
-        (127, 127, 127),
-        (188, 189, 34),
-        (23, 190, 207),
-    ];
-    let (r, g, b) = TAB10[i % TAB10.len()];
-    RGBColor(r, g, b)
-}
+use crate::sweep::plots::{PlotError, render, tab10, text_size};
 
 /// The time series of one job drawn in [`time_histories`].
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -162,7 +144,7 @@ where
             envelope(&j.time_s, &y, width),
             // Width 1: plotters draws wider polylines as polygons, which break up on the
             // near-vertical segments of an envelope.
-            job_color(i).stroke_width(1),
+            tab10(i).stroke_width(1),
         ))?;
     }
     Ok(())
@@ -217,7 +199,7 @@ where
             .chain(j.wear_m.first())
             .enumerate()
             .map(|(k, w)| (360.0 * k as f64 / n, w * 1e6));
-        chart.draw_series(LineSeries::new(pts, job_color(i).stroke_width(2)))?;
+        chart.draw_series(LineSeries::new(pts, tab10(i).stroke_width(2)))?;
     }
     Ok(())
 }
@@ -243,7 +225,7 @@ where
         let y = 8 + (i / per_row) as i32 * 20;
         area.draw(&PathElement::new(
             [(x, y + 8), (x + 24, y + 8)],
-            job_color(i).stroke_width(3),
+            tab10(i).stroke_width(3),
         ))?;
         area.draw(&Text::new(
             l.clone(),
@@ -258,6 +240,13 @@ where
 fn legend_rows(n: usize, widest: u32, width: u32) -> u32 {
     let per_row = (width / (widest + 40).max(100)).max(1) as usize;
     n.div_ceil(per_row) as u32
+}
+
+/// Height (pixels) of the legend strip of `labels` in a figure `width` pixels wide.
+fn legend_height<'a>(labels: impl ExactSizeIterator<Item = &'a str>, width: u32) -> u32 {
+    let n = labels.len();
+    let widest = labels.map(|l| text_size(l, 13.0).0).max().unwrap_or(0);
+    16 + 20 * legend_rows(n, widest, width)
 }
 
 fn draw_histories<DB: DrawingBackend>(
@@ -317,13 +306,7 @@ pub fn time_histories(data: &TimeHistoryData, path: &Path) -> Result<(), PlotErr
         return Err(PlotError::Empty("time histories need at least one job"));
     }
     let width = 1300;
-    let widest = data
-        .jobs
-        .iter()
-        .map(|j| text_size(&j.label, 13.0).0)
-        .max()
-        .unwrap_or(0);
-    let legend_h = 16 + 20 * legend_rows(data.jobs.len(), widest, width);
+    let legend_h = legend_height(data.jobs.iter().map(|j| j.label.as_str()), width);
     render(
         path,
         (width, 860 + legend_h),
@@ -396,7 +379,7 @@ where
     let k = d.jobs.len().max(1) as f64;
     let bar = 0.8 / k;
     for (j, (_, e)) in d.jobs.iter().enumerate() {
-        let color = job_color(j);
+        let color = tab10(j);
         chart.draw_series(
             e.iter()
                 .enumerate()
@@ -423,13 +406,7 @@ pub fn nd_energy_bars(data: &NdEnergyData, path: &Path) -> Result<(), PlotError>
         return Err(PlotError::Empty("no strain energy per nodal diameter"));
     }
     let width = 1100;
-    let widest = data
-        .jobs
-        .iter()
-        .map(|(l, _)| text_size(l, 13.0).0)
-        .max()
-        .unwrap_or(0);
-    let legend_h = 16 + 20 * legend_rows(data.jobs.len(), widest, width);
+    let legend_h = legend_height(data.jobs.iter().map(|(l, _)| l.as_str()), width);
     render(
         path,
         (width, 620 + legend_h),

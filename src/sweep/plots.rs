@@ -165,8 +165,13 @@ pub(crate) fn colormap(t: f64) -> RGBColor {
     RGBColor(lerp(a.0, b.0), lerp(a.1, b.1), lerp(a.2, b.2))
 }
 
-/// Distinct colours per nodal diameter (Tableau 10, readable on white).
+/// Distinct colours per nodal diameter.
 fn nd_color(n: u32) -> RGBColor {
+    tab10(n as usize)
+}
+
+/// The `i`-th of ten distinct colours, cycling (Tableau 10, readable on white).
+pub(crate) fn tab10(i: usize) -> RGBColor {
     const TAB10: [(u8, u8, u8); 10] = [
         (31, 119, 180),
         (255, 127, 14),
@@ -179,7 +184,7 @@ fn nd_color(n: u32) -> RGBColor {
         (188, 189, 34),
         (23, 190, 207),
     ];
-    let (r, g, b) = TAB10[n as usize % TAB10.len()];
+    let (r, g, b) = TAB10[i % TAB10.len()];
     RGBColor(r, g, b)
 }
 
@@ -729,6 +734,27 @@ where
         .x_label_formatter(&|v| format!("{v:.0}"))
         .y_label_formatter(&|v| format!("{v:.0}"))
         .draw()?;
+    draw_campbell_curves(&mut chart, d, (x_lo, x_hi), f_max)?;
+    let area = plot_box(&chart);
+    let legend = campbell_legend(&root, d, (area.x0 + 8, area.y0 + 8))?;
+    let labels = label_critical_speeds(&root, &mut chart, d, (x_lo, x_hi), legend)?;
+    root.present()?;
+    Ok(labels)
+}
+
+/// The swept speed band and the mode lines of the Campbell diagram: casing modes dashed,
+/// impeller backward waves seen from the fixed frame solid (speeds `x` in rad/s, up to
+/// `f_max` Hz).
+fn draw_campbell_curves<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    d: &CampbellData,
+    (x_lo, x_hi): (f64, f64),
+    f_max: f64,
+) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let hz = |w: f64| w / TAU;
     if let Some((a, b)) = d.speed_band_rad_s {
         // A single-speed sweep still shows: at least 0.6 % of the axis wide.
         let half = (0.5 * (b - a)).max(0.003 * (x_hi - x_lo));
@@ -764,8 +790,22 @@ where
             color.stroke_width(2),
         ))?;
     }
-    let area = plot_box(&chart);
-    let legend = campbell_legend(&root, d, (area.x0 + 8, area.y0 + 8))?;
+    Ok(())
+}
+
+/// Markers at the critical speeds' crossings and their labels, placed away from the
+/// `legend` box, with leader lines to labels set apart and a note of those left out.
+fn label_critical_speeds<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    d: &CampbellData,
+    (x_lo, x_hi): (f64, f64),
+    legend: LabelBox,
+) -> DrawResult<PlotLabels>
+where
+    DB::ErrorType: 'static,
+{
+    let area = plot_box(chart);
     // Markers at the crossings, then labels: the most compatible first (the ones that
     // matter), so crowding drops the least compatible.
     let mut crit: Vec<&CriticalSpeed> = d
@@ -810,7 +850,7 @@ where
     }
     let markers: Vec<(i32, i32)> = pending.iter().map(|(p, _)| *p).collect();
     let (labels, boxes) = draw_labels(
-        &root,
+        root,
         pending.into_iter().map(|(_, l)| l).collect(),
         area,
         &obstacles,
@@ -832,7 +872,6 @@ where
         let at = (area.x1 - w as i32 - 6, area.y1 - h as i32 - 6);
         root.draw(&Text::new(note, at, ("sans-serif", 13).into_font()))?;
     }
-    root.present()?;
     Ok(labels)
 }
 

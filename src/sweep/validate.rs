@@ -138,10 +138,7 @@ fn check_speeds_and_step(
 ) {
     let casing_structure = match casing {
         ResolvedCasing::Flexible(rom) => match Structure::new(rom, 0.0) {
-            Ok(s) => Some(
-                s.with_boundary(spec.numerics.boundary)
-                    .with_mode_cutoff(spec.numerics.mode_cutoff_hz),
-            ),
+            Ok(s) => Some(s.with_numerics(&spec.numerics)),
             Err(e) => {
                 issues.push(issue("/models/casing", e.to_string()));
                 return;
@@ -170,9 +167,7 @@ fn check_speeds_and_step(
             continue;
         }
         let st = match Structure::new(impeller, omega) {
-            Ok(st) => st
-                .with_boundary(spec.numerics.boundary)
-                .with_mode_cutoff(spec.numerics.mode_cutoff_hz),
+            Ok(st) => st.with_numerics(&spec.numerics),
             Err(e @ StructureError::Indefinite { .. }) => {
                 issues.push(issue(
                     speed_pointer(spec, i),
