@@ -496,6 +496,19 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
             c.compatibility
         );
     }
+    if let Some(rom) = sim.casing_rom()
+        && let Some((omega_c, k)) = Structure::new(rom, 0.0)
+            .map_err(anyhow::Error::from)?
+            .critical_wave_speed()
+    {
+        let _ = writeln!(
+            s,
+            "flexible casing's critical wave speed min_k ω_k/k = {omega_c:.1} rad/s ({:.0} rpm, \
+             nodal diameter {k}): above it a rotating contact can feed the casing's backward \
+             waves with the rotation's energy (moving-load instability, docs/validation.md)",
+            omega_c * 30.0 / PI
+        );
+    }
     // A readable diagram: the nodal diameters of the first critical speeds, first casing mode
     // and first two impeller branches of each.
     let data = campbell_data(&sim, None);

@@ -47,6 +47,7 @@ fn simulate_writes_documented_time_series() {
         "casing_probe0_radial_m",
         "blade0_normal_force_n",
         "min_gap_m",
+        "drive_work_j",
     ] {
         let f = schema
             .field_with_name(name)

@@ -38,6 +38,9 @@ pub struct SimulationOutput {
     /// synthesise the corrected casing surface (aside: the state never reads it), so only
     /// they are checked.
     pub residual_penetration: Vec<f64>,
+    /// Work (J) of the imposed rotation through the contact forces, see
+    /// [`crate::dynamics::recorder::Sample::drive_work`].
+    pub drive_work: Vec<f64>,
     /// Impeller energies (J, half-step form).
     pub impeller_energy: EnergySeries,
     /// Casing energies (J, half-step form).

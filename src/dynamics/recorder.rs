@@ -32,6 +32,9 @@ pub struct Sample<'a> {
     /// Largest residual penetration after the correction (m, ≥ 0): the corrected blade nodes
     /// re-projected on the corrected casing surface.
     pub residual_penetration: f64,
+    /// Work (J) the imposed rotation has done on the two structures through the contact
+    /// forces since t = 0: `−Ω ∫ M_z dt`, `M_z` the contact forces' torque about the axis.
+    pub drive_work: f64,
     /// Impeller energies (J, half-step form).
     pub impeller_energy: Energies,
     /// Casing energies (J); `None` for a rigid casing.
@@ -125,6 +128,7 @@ impl Recorder for SeriesRecorder {
         push_each(&mut o.blade_tangential_force, s.blade_tangential_force);
         o.min_gap.push(s.min_gap);
         o.residual_penetration.push(s.residual_penetration);
+        o.drive_work.push(s.drive_work);
         push_energy(&mut o.impeller_energy, s.impeller_energy);
         if let Some(e) = s.casing_energy {
             push_energy(&mut o.casing_energy, e);

@@ -1020,6 +1020,10 @@ pub struct Simulation<'a> {
     sample_step: bool,
     min_gap: f64,
     residual: f64,
+    drive_work: f64,
+    /// The flexible casing's critical wave speed (rad/s) and its nodal diameter
+    /// ([`Structure::critical_wave_speed`]).
+    casing_wave: Option<(f64, usize)>,
     /// Probe buffers of a sample (per blade, per casing probe, per nodal diameter).
     le: Vec<f64>,
     te: Vec<f64>,
@@ -1145,6 +1149,8 @@ impl<'a> Simulation<'a> {
             sample_step: false,
             min_gap: f64::INFINITY,
             residual: 0.0,
+            drive_work: 0.0,
+            casing_wave: st_c.as_ref().and_then(Structure::critical_wave_speed),
             le: vec![0.0; n_blades],
             te: vec![0.0; n_blades],
             casing_radial: vec![0.0; case.casing_probes.len()],
@@ -1188,6 +1194,37 @@ impl<'a> Simulation<'a> {
 
     /// One time step t_n → t_{n+1} (paper Figs. 4 and 11).
     pub fn step(&mut self, recorder: &mut dyn Recorder) -> Result<(), SimError> {
+        self.staged_step(recorder).map_err(|e| self.explain(e))
+    }
+
+    /// `e` with, when the response ran away above the flexible casing's critical wave speed,
+    /// the energy the rotation fed in: a diverged or failed contact there is the moving-load
+    /// instability of the casing's backward waves, not a fault of the solve.
+    fn explain(&self, e: SimError) -> SimError {
+        let Some((omega_c, k)) = self.casing_wave.filter(|w| self.case.omega > w.0) else {
+            return e;
+        };
+        let context = format!(
+            " (Ω = {:.1} rad/s is above the flexible casing's critical wave speed {omega_c:.1} \
+             rad/s, nodal diameter {k}, where the rotating contact can feed the casing's \
+             backward waves: the rotation had done {:.4e} J of work through the contact forces)",
+            self.case.omega, self.drive_work
+        );
+        match e {
+            SimError::Diverged { time, reason } => SimError::Diverged {
+                time,
+                reason: reason + &context,
+            },
+            SimError::Projection { time, reason } => SimError::Projection {
+                time,
+                reason: reason + &context,
+            },
+            other => other,
+        }
+    }
+
+    /// The boxes of one step, in the order of the paper's Figs. 4 and 11.
+    fn staged_step(&mut self, recorder: &mut dyn Recorder) -> Result<(), SimError> {
         self.predict();
         self.casing_surface()?;
         self.project()?;
@@ -1290,6 +1327,7 @@ impl<'a> Simulation<'a> {
         if !any {
             return Ok(());
         }
+        self.drive_work -= self.case.omega * cs.torque * self.summary.time_step;
         // Fused with the next predictors, as the Lagrange correction is (box 5): most coating
         // steps have no Lagrange contact, and their next `predict` then only swaps in the
         // predictor formed here. A Lagrange correction that follows forms it again from the
@@ -1508,6 +1546,8 @@ impl<'a> Simulation<'a> {
         let next_load = self.case.load_factor(self.t1);
         let c = &mut self.contact;
         let nbi = self.blades.nb;
+        let b_nodes = &self.blades.nodes;
+        let mut torque = 0.0;
         c.fi.iter_mut().for_each(|x| *x = 0.0);
         if c.lambda[..c.cands.len()].iter().any(|&l| l != 0.0) {
             self.summary.closed_contact_steps += 1;
@@ -1521,11 +1561,13 @@ impl<'a> Simulation<'a> {
                 .zip(cd.f_loc.iter())
                 .for_each(|(x, f)| *x += l * f);
             c.force_n[cd.blade] += l;
+            torque += b_nodes[cd.node].cross(&(l * cd.fdir)).z;
             self.summary.active_contacts += 1;
             if cd.slip {
                 c.force_t[cd.blade] += mu * l;
             }
         }
+        self.drive_work -= self.case.omega * torque * self.summary.time_step;
         // The impeller carries no load pattern: its next predictor has amplitude 0.
         self.blades
             .kernel
@@ -1758,6 +1800,7 @@ impl<'a> Simulation<'a> {
             blade_tangential_force: &self.contact.force_t,
             min_gap: self.min_gap,
             residual_penetration: self.residual,
+            drive_work: self.drive_work,
             impeller_energy: ki.energies(),
             casing_energy,
             impeller_nd_strain_energy: &self.nd_energy,
@@ -2244,8 +2287,10 @@ struct CoatingStage {
     nbi: usize,
     pending: Vec<ElementUpdate>,
     removals: Vec<(usize, usize)>,
-    /// Coating force per blade of the current step (N).
+    /// Coating force per blade of the current step (N), and their torque about the axis
+    /// (N·m, fixed frame).
     blade_force: Vec<f64>,
+    torque: f64,
     /// Boundary forces of the current step (sector-major), impeller and casing.
     fi: Vec<f64>,
     fc: Vec<f64>,
@@ -2289,6 +2334,7 @@ impl CoatingStage {
             pending: Vec::with_capacity(nn),
             removals: Vec::with_capacity(2 * nn),
             blade_force: vec![0.0; nbl],
+            torque: 0.0,
             fi: vec![0.0; nbl * nbi],
             fc: vec![0.0; ncs * 3 * mc],
             wu: vec![0.0; ncs],
@@ -2321,6 +2367,7 @@ impl CoatingStage {
         self.pending.clear();
         self.removals.clear();
         self.blade_force.iter_mut().for_each(|x| *x = 0.0);
+        self.torque = 0.0;
         let e_abr = self.layer.material().thickness;
         let mut any = false;
         for (node, p) in proj.iter().enumerate() {
@@ -2378,6 +2425,7 @@ impl CoatingStage {
                 )?;
             }
             self.blade_force[s] += f;
+            self.torque += gam[node].cross(&fdir).z;
         }
         if any {
             if let Some(cf) = fr.casing {

@@ -313,6 +313,24 @@ impl Structure {
         Cow::Owned(st)
     }
 
+    /// The critical speed of this structure as a stator: the lowest rotation speed (rad/s) at
+    /// which a load rotating around it travels with one of its waves, `min_k ω_k / k` over the
+    /// nodal diameters k ≥ 1 (`ω_k` the lowest natural frequency of diameter k), with the
+    /// minimising k. Above it the backward wave of that diameter stands still in the rotating
+    /// frame, and a rotating contact that dissipates (friction, impacts, coating) can feed it
+    /// with the rotation's energy: the moving-load instability of a stationary elastic ring
+    /// or disk (Iwan & Moeller 1976, with rotor and stator exchanged). `None` without a
+    /// nodal diameter k ≥ 1.
+    pub fn critical_wave_speed(&self) -> Option<(f64, usize)> {
+        (self.blocks.iter())
+            .filter(|b| b.k >= 1)
+            .filter_map(|b| {
+                let lowest = b.omega.iter().copied().fold(f64::INFINITY, f64::min);
+                lowest.is_finite().then(|| (lowest / b.k as f64, b.k))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
     /// Explicit stability limit `h_crit = 2/ω_max` (s); infinite for a structure without stiffness.
     pub fn stability_limit(&self) -> f64 {
         if self.omega_max > 0.0 {

@@ -63,6 +63,7 @@ fn each_column<'a>(s: &Sample<'a>, mut f: impl FnMut(ColumnName<'a>, &'static st
         "m",
         s.residual_penetration,
     );
+    f(ColumnName::Plain("drive_work_j"), "J", s.drive_work);
     let e = s.impeller_energy;
     f(
         ColumnName::Plain("impeller_kinetic_energy_j"),
@@ -253,6 +254,7 @@ mod tests {
                 blade_tangential_force: &[0.0, 0.1],
                 min_gap: -t,
                 residual_penetration: 0.0,
+                drive_work: 0.0,
                 impeller_energy: Energies::default(),
                 casing_energy: None,
                 impeller_nd_strain_energy: &nd,
@@ -348,6 +350,7 @@ mod tests {
                 blade_tangential_force: &[0.0],
                 min_gap: 0.0,
                 residual_penetration: 0.0,
+                drive_work: 0.0,
                 impeller_energy: Energies::default(),
                 casing_energy: None,
                 impeller_nd_strain_energy: &[],

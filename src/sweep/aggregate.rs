@@ -163,6 +163,7 @@ mod tests {
             blade_tangential_force: &[],
             min_gap: 0.0,
             residual_penetration: 0.0,
+            drive_work: 0.0,
             impeller_energy: Energies::default(),
             casing_energy: None,
             impeller_nd_strain_energy: nd,
