@@ -432,6 +432,7 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     opts.retry_failed = args.retry_failed;
     cancel_on_ctrl_c(opts.cancel.clone());
     let mut sim = ModelSimulator::from_resolved(resolved)?;
+    sim.check_coating_limits(&plan(&spec)?.jobs)?;
     if args.timeseries {
         sim = sim.with_timeseries(opts.output_dir.join("timeseries"));
     }

@@ -1344,6 +1344,9 @@ impl<'a> Simulation<'a> {
         self.blades.place(&self.r_om);
         let p = &mut self.projector;
         let (eps, spline, q) = (p.eps, &side.spline, &side.q);
+        // Only the nodes that may now touch the bare casing (the Lagrange candidates of box 3):
+        // the others keep a gap provably above 0, and a sample step finds the exact minimum gap
+        // in `gaps`.
         let found = p.bounds.project_near(
             spline,
             q,
@@ -1352,7 +1355,7 @@ impl<'a> Simulation<'a> {
             eps,
             &mut p.proj,
             0.0,
-            true,
+            false,
         );
         found.map_err(projection_failed(self.t1))?;
         cs.flag_penetrations(self.blades.n_contact, &self.projector.proj)?;
@@ -2242,10 +2245,7 @@ fn surface_point(
     q: &[Vector3<f64>],
     p: &SurfaceParam,
 ) -> Result<Vector3<f64>, SimError> {
-    spline
-        .evaluate(q, p)
-        .map(|e| e.s)
-        .map_err(|e| SimError::Spline(e.to_string()))
+    (spline.point(q, p)).map_err(|e| SimError::Spline(e.to_string()))
 }
 
 /// Frames and spline state of the current step, as seen by the coating stage.

@@ -20,6 +20,7 @@ use crate::io::timeseries::TimeSeriesWriter;
 use crate::model::rom::CyclicRom;
 use crate::sweep::aggregate::JobAggregator;
 use crate::sweep::planner::{CoatingParams, CoatingValue, Job};
+use crate::sweep::schema::SpecError;
 use crate::sweep::spec::{Scenario, SweepSpec};
 use crate::sweep::validate::{self, ResolvedCasing, ResolvedSweep};
 use crate::sweep::{CriticalSpeed, JobResult, JobSimulator, JobSteps};
@@ -54,6 +55,26 @@ fn job_coating(extras: &Scenario, params: &CoatingParams) -> Option<CoatingCase>
         eta: n.eta,
         ..CoatingCase::new(material)
     })
+}
+
+/// A job's grid point for an error message: speed, friction and the coating values it sets.
+fn describe(job: &Job) -> String {
+    let p = &job.params;
+    let mut s = format!("Ω = {} rad/s, μ = {}", p.speed_rad_s, p.friction);
+    let c = &p.coating;
+    for (name, value) in [
+        ("young", c.young),
+        ("hardening", c.hardening),
+        ("yield_stress", c.yield_stress),
+        ("thickness", c.thickness),
+    ] {
+        match value {
+            Some(CoatingValue::Scale(x)) => s += &format!(", coating {name} ×{x}"),
+            Some(CoatingValue::Absolute(x)) => s += &format!(", coating {name} {x}"),
+            None => {}
+        }
+    }
+    s
 }
 
 /// Default tip clearance (m) of a rigid casing when the grid gives none.
@@ -282,6 +303,49 @@ impl ModelSimulator {
     /// The impeller ROM of the sweep.
     pub fn impeller(&self) -> &CyclicRom {
         &self.impeller
+    }
+
+    /// Sets up, without running it, the job of stiffest coating (largest `E / e_abr`) at each
+    /// speed of `jobs`: the explicit coating force's limit `k·w < 1` (`k = E A / e_abr`, the
+    /// contact flexibility `w ∝ h²`), which a job would otherwise meet at its own start, is
+    /// checked before any job runs. A job that cannot start is a spec issue at
+    /// `/scenario/coating` (or `/grid/coating` when the grid varies the coating), naming the job.
+    pub fn check_coating_limits(&self, jobs: &[Job]) -> Result<(), SpecError> {
+        let stiffness = |job: &Job| {
+            job_coating(&job.context.scenario, &job.params.coating)
+                .map(|c| c.material.young / c.material.thickness)
+        };
+        let mut stiffest: Vec<(&Job, f64)> = Vec::new();
+        for job in jobs {
+            let Some(k) = stiffness(job) else { continue };
+            let speed = job.params.speed_rad_s;
+            match stiffest
+                .iter_mut()
+                .find(|(j, _)| j.params.speed_rad_s == speed)
+            {
+                Some(entry) if entry.1 >= k => {}
+                Some(entry) => *entry = (job, k),
+                None => stiffest.push((job, k)),
+            }
+        }
+        for (job, _) in stiffest {
+            let (case, casing, _) = self
+                .case_for_job(job)
+                .map_err(|e| SpecError::one("", format!("{e:#}")))?;
+            if let Err(e) = Simulation::new(&case, &self.impeller, &casing) {
+                let on_grid = job.params.coating != CoatingParams::default();
+                let path = if on_grid {
+                    "/grid/coating"
+                } else {
+                    "/scenario/coating"
+                };
+                return Err(SpecError::one(
+                    path,
+                    format!("job {} ({}) cannot start: {e}", job.index, describe(job)),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Builds the simulation case and casing model of one job, and returns the job's scenario.
