@@ -249,6 +249,7 @@ pub fn simulate(
         )
     })?;
     let sim = ModelSimulator::from_resolved(resolved)?;
+    sim.check_coating_limits(std::slice::from_ref(job))?;
     let (case, casing, _) = sim.case_for_job(job)?;
     let cancel = Arc::new(AtomicBool::new(false));
     cancel_on_ctrl_c(cancel.clone());

@@ -437,6 +437,17 @@ fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
         assert!(err.contains(e), "{e:?} not in {err}");
     }
     assert!(!out.exists(), "output written: {err}");
+    // `simulate` refuses that job the same way.
+    let st = rubscan()
+        .args(["simulate", "--job", "1"])
+        .arg(&spec)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&st.stderr);
+    assert_eq!(st.status.code(), Some(1), "{err}");
+    assert!(err.contains("coating too stiff") && !out.exists(), "{err}");
     // The nominal coating alone runs.
     let spec = small_with(&dir, "nominal", |v| {
         v["scenario"]["duration_s"] = serde_json::json!(0.0005);
