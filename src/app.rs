@@ -433,7 +433,23 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     opts.retry_failed = args.retry_failed;
     cancel_on_ctrl_c(opts.cancel.clone());
     let mut sim = ModelSimulator::from_resolved(resolved)?;
-    sim.check_coating_limits(&plan(&spec)?.jobs)?;
+    let jobs = plan(&spec)?.jobs;
+    sim.check_coating_limits(&jobs)?;
+    if let Some((omega_c, k)) = sim.casing_wave_speed()? {
+        let above = jobs
+            .iter()
+            .filter(|j| j.params.speed_rad_s > omega_c)
+            .count();
+        if above > 0 {
+            eprintln!(
+                "[sweep] note: {above} of {} jobs run above the flexible casing's critical wave \
+                 speed {omega_c:.1} rad/s (nodal diameter {k}), where a contact that stays closed \
+                 can feed the casing's backward waves with the rotation's energy: their response \
+                 may grow until the contact solve gives up (docs/validation.md)",
+                jobs.len()
+            );
+        }
+    }
     if args.timeseries {
         sim = sim.with_timeseries(opts.output_dir.join("timeseries"));
     }
@@ -498,11 +514,7 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
             c.compatibility
         );
     }
-    if let Some(rom) = sim.casing_rom()
-        && let Some((omega_c, k)) = Structure::new(rom, 0.0)
-            .map_err(anyhow::Error::from)?
-            .critical_wave_speed()
-    {
+    if let Some((omega_c, k)) = sim.casing_wave_speed()? {
         let _ = writeln!(
             s,
             "flexible casing's critical wave speed min_k ω_k/k = {omega_c:.1} rad/s ({:.0} rpm, \

@@ -649,3 +649,33 @@ fn jobs_past_the_wall_time_limit_fail_with_the_reason() {
     assert!(err.contains("1 of 1 finished jobs failed"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `run` says how many jobs lie above the flexible casing's critical wave speed (5517.7 rad/s,
+/// nodal diameter 4, for the small casing: `min_k ω_k / k`), and says nothing when none does.
+#[test]
+fn run_notes_the_jobs_above_the_casing_critical_wave_speed() {
+    let dir = tmp("wavespeed");
+    std::fs::create_dir_all(&dir).unwrap();
+    for (speeds, note) in [(vec![1500.0, 7000.0], true), (vec![1500.0], false)] {
+        let spec = small_with(&dir, "spec", |v| {
+            v["scenario"]["duration_s"] = serde_json::json!(0.001);
+            v["scenario"]["load_ramp_s"] = serde_json::json!(0.0005);
+            v["grid"]["speed"]["values"] = serde_json::json!(speeds);
+            v["grid"]["friction"] = serde_json::json!([0.0]);
+        });
+        let out = dir.join(format!("out{}", speeds.len()));
+        let st = rubscan()
+            .arg("run")
+            .arg(&spec)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&st.stderr);
+        assert_eq!(st.status.code(), Some(0), "{err}");
+        let said = err.contains("1 of 2 jobs run above the flexible casing's critical wave speed");
+        assert_eq!(said, note, "{err}");
+        assert_eq!(err.contains("critical wave speed"), note, "{err}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -13,6 +13,7 @@ use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
 use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::recorder::{RecordError, Recorder, Sample};
 use crate::dynamics::scenario::CoatingCase;
+use crate::dynamics::structure::Structure;
 use crate::dynamics::{
     Case, CasingModel, LobeLoad, RigidShape, RigidSurface, SimError, Simulation,
 };
@@ -298,6 +299,15 @@ impl ModelSimulator {
             ResolvedCasing::Flexible(rom) => Some(rom),
             ResolvedCasing::Rigid(_) | ResolvedCasing::ImposedGap(_) => None,
         }
+    }
+
+    /// The flexible casing's critical wave speed (rad/s) and its nodal diameter
+    /// ([`Structure::critical_wave_speed`]); `None` for a rigid casing.
+    pub fn casing_wave_speed(&self) -> Result<Option<(f64, usize)>> {
+        let Some(rom) = self.casing_rom() else {
+            return Ok(None);
+        };
+        Ok(Structure::new(rom, 0.0)?.critical_wave_speed())
     }
 
     /// The impeller ROM of the sweep.
