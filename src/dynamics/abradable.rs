@@ -216,6 +216,25 @@ pub(crate) struct ElementUpdate {
     pub reaches_casing: bool,
 }
 
+/// One element's law as the contact solve of a massless boundary reads it: the element is a
+/// spring in series with the boundary's static flexibility, so its force is solved with the
+/// tip displacement instead of being evaluated on the predicted one (see
+/// `contact_solve::coated_solve`). With `p` the tip's depth below the worn surface (m) and `Δp`
+/// the plastic shortening of the step (m), the element carries `λ = k (p − Δp) ≥ 0` and yields
+/// when `λ = λ_Y + K' Δp` ([`CoatingMaterial::return_map`] in forces and lengths).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CoatingLaw {
+    /// Gap to the casing (m) at which the tip meets the worn surface: `e_abr (1 − ε_p)`.
+    pub remaining: f64,
+    /// Elastic stiffness `k = E A / e_abr` (N/m).
+    pub stiffness: f64,
+    /// Force at which the element yields, `λ_Y = A (σ_Y + K ε_p)` (N).
+    pub yield_force: f64,
+    /// Hardening stiffness `K' = K A / e_abr` (N/m): the yield force per metre of plastic
+    /// shortening.
+    pub hardening: f64,
+}
+
 /// State of the whole coating: `n_rows × η` elements.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub(crate) struct CoatingLayer {
@@ -365,6 +384,52 @@ impl CoatingLayer {
             reaches_casing: incursion >= self.material.thickness,
         };
         Ok((sigma * self.tip_area[row], update))
+    }
+
+    /// The element under angle `theta` (rad) in row `row` and its law for the implicit solve.
+    pub(crate) fn law(
+        &self,
+        row: usize,
+        theta: f64,
+    ) -> Result<(usize, CoatingLaw), AbradableError> {
+        self.check_row(row)?;
+        let element = self.element_index(theta)?;
+        let m = &self.material;
+        let (area, eps_p) = (
+            self.tip_area[row],
+            self.plastic_strain[row * self.eta + element],
+        );
+        let law = CoatingLaw {
+            remaining: m.thickness * (1.0 - eps_p),
+            stiffness: m.young * area / m.thickness,
+            yield_force: area * (m.yield_stress + m.plastic_modulus * eps_p),
+            hardening: m.plastic_modulus * area / m.thickness,
+        };
+        Ok((element, law))
+    }
+
+    /// The update of element `element` of row `row` after a plastic shortening `plastic` (m,
+    /// ≥ 0) found by the implicit solve; `reaches_casing` is false (a tip that reaches the
+    /// casing is removed by the caller instead).
+    pub(crate) fn plastic_update(
+        &self,
+        row: usize,
+        element: usize,
+        plastic: f64,
+    ) -> Result<ElementUpdate, AbradableError> {
+        let eps_p = self.plastic_strain(row, element)?;
+        if !plastic.is_finite() {
+            return Err(AbradableError::NotFinite {
+                name: "plastic shortening",
+                value: plastic,
+            });
+        }
+        Ok(ElementUpdate {
+            row,
+            element,
+            plastic_strain: (eps_p + plastic.max(0.0) / self.material.thickness).min(1.0),
+            reaches_casing: false,
+        })
     }
 
     /// Commits an accepted update. Plastic strain never decreases, so the element keeps

@@ -11,8 +11,10 @@ use crate::contact::{
     CasingSpline, GapBounds, NodeProjectionError, Projection, SurfaceParam, closest_point,
     friction_direction, project_nodes,
 };
-use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
-use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve};
+use crate::dynamics::abradable::{AbradableError, CoatingLaw, CoatingLayer, ElementUpdate};
+use crate::dynamics::contact_solve::{
+    CoatedBuffers, ControlFlexTable, NodeFlexTable, active_set_solve, coated_solve,
+};
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
 use crate::dynamics::kernel::StructureKernel;
@@ -616,8 +618,9 @@ fn set_casing_load(
     Ok(())
 }
 
-/// The abradable coating's stage of a case (Fig. 11), checked against the casing kind, the
-/// boundary model and its explicit stability; `None` without a coating.
+/// The abradable coating's stage of a case (Fig. 11), checked against the casing kind and,
+/// with the paper's formulation, the explicit stability of its force (a massless boundary
+/// solves it implicitly, box 4); `None` without a coating.
 fn coating_stage(
     case: &Case,
     impeller: &CyclicRom,
@@ -626,15 +629,13 @@ fn coating_stage(
     steps_per_revolution: f64,
 ) -> Result<Option<CoatingStage>, SimError> {
     Ok(match (&case.coating, casing.surface_mut()) {
-        (Some(_), _) if case.numerics.boundary == Boundary::Massless => {
-            return Err(SimError::InvalidCase(
-                "an abradable coating with a massless boundary is not supported yet".into(),
-            ));
-        }
         (Some(cc), Some(side)) => {
             let mut cs = CoatingStage::new(cc, impeller, blades, case.friction, side)?;
             cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;
-            cs.check_stability(blades, side.flexible.as_mut())?;
+            match case.numerics.boundary {
+                Boundary::Mass => cs.check_stability(blades, side.flexible.as_mut())?,
+                Boundary::Massless => cs.node_law = vec![None; blades.n_blades * blades.n_contact],
+            }
             Some(cs)
         }
         (Some(_), None) => {
@@ -932,6 +933,12 @@ struct ContactProblem {
     /// Normal and friction force per blade (N) of the step.
     force_n: Vec<f64>,
     force_t: Vec<f64>,
+    /// With a coating on a massless boundary, the law of the element each candidate presses
+    /// (`None`: Lagrange contact with the casing), the plastic shortening of the step (m) and
+    /// the buffers of [`coated_solve`]. `laws` is empty otherwise.
+    laws: Vec<Option<CoatingLaw>>,
+    plastic: Vec<f64>,
+    coated: CoatedBuffers,
 }
 
 impl ContactProblem {
@@ -978,23 +985,44 @@ impl ContactProblem {
             touched: vec![None; nn],
             force_n: vec![0.0; blades.n_blades],
             force_t: vec![0.0; blades.n_blades],
+            laws: Vec::with_capacity(nn),
+            plastic: vec![0.0; nn],
+            coated: CoatedBuffers::default(),
         }
+    }
+
+    /// Whether candidate `k` presses a coating element (massless boundary).
+    fn on_coating(&self, k: usize) -> bool {
+        self.laws.get(k).is_some_and(Option::is_some)
     }
 
     /// The multipliers of eq. (18) for the first `nk` candidates, gaps `d` and matrix `w`,
     /// the active set iterated to the gap tolerance `tol` (m); time `time` (s) for the error.
     fn solve_multipliers(&mut self, tol: f64, time: f64) -> Result<(), SimError> {
         let nk = self.cands.len();
-        let solved = active_set_solve(
-            nk,
-            &self.w[..nk * nk],
-            &self.d[..nk],
-            tol,
-            &mut self.lambda,
-            &mut self.active,
-            &mut self.lu,
-            &mut self.rhs,
-        );
+        let solved = if self.laws.is_empty() {
+            active_set_solve(
+                nk,
+                &self.w[..nk * nk],
+                &self.d[..nk],
+                tol,
+                &mut self.lambda,
+                &mut self.active,
+                &mut self.lu,
+                &mut self.rhs,
+            )
+        } else {
+            coated_solve(
+                nk,
+                &self.w[..nk * nk],
+                &self.d[..nk],
+                &self.laws,
+                tol,
+                &mut self.lambda,
+                &mut self.plastic,
+                &mut self.coated,
+            )
+        };
         solved.map(drop).map_err(|e| SimError::Diverged {
             time,
             reason: e.to_string(),
@@ -1024,6 +1052,8 @@ pub struct Simulation<'a> {
     /// The flexible casing's critical wave speed (rad/s) and its nodal diameter
     /// ([`Structure::critical_wave_speed`]).
     casing_wave: Option<(f64, usize)>,
+    /// Whether some blade-tip node's predicted gap to the casing itself is negative.
+    rubs: bool,
     /// Probe buffers of a sample (per blade, per casing probe, per nodal diameter).
     le: Vec<f64>,
     te: Vec<f64>,
@@ -1148,6 +1178,7 @@ impl<'a> Simulation<'a> {
             r_om: Matrix3::identity(),
             sample_step: false,
             min_gap: f64::INFINITY,
+            rubs: false,
             residual: 0.0,
             drive_work: 0.0,
             casing_wave: st_c.as_ref().and_then(Structure::critical_wave_speed),
@@ -1231,7 +1262,9 @@ impl<'a> Simulation<'a> {
         self.coating()?;
         self.gaps()?;
         if !self.contact.cands.is_empty() {
-            self.summary.contact_steps += 1;
+            if self.rubs {
+                self.summary.contact_steps += 1;
+            }
             loop {
                 self.friction_directions()?;
                 self.contact_solve()?;
@@ -1241,6 +1274,7 @@ impl<'a> Simulation<'a> {
             }
             self.refine_contact()?;
             self.correct()?;
+            self.coating_forces()?;
         }
         self.advance()?;
         self.record(recorder)
@@ -1308,6 +1342,10 @@ impl<'a> Simulation<'a> {
         let (Some(cs), Casing::Surface(side)) = (self.coating.as_mut(), &mut self.casing) else {
             return Ok(());
         };
+        if cs.implicit() {
+            // A massless boundary: the elements' laws join the contact problem (box 4).
+            return cs.laws_of(self.blades.n_contact, &self.projector.proj);
+        }
         let fr = StepFrames {
             spline: &side.spline,
             q: &side.q,
@@ -1372,6 +1410,8 @@ impl<'a> Simulation<'a> {
         c.force_t.iter_mut().for_each(|x| *x = 0.0);
         self.residual = 0.0;
         self.min_gap = f64::INFINITY;
+        self.rubs = false;
+        let laws = self.coating.as_ref().map_or(&[][..], |cs| &cs.node_law[..]);
         for (node, p) in self.projector.proj.iter().enumerate() {
             if !p.gap.is_finite() {
                 return Err(SimError::Diverged {
@@ -1380,7 +1420,8 @@ impl<'a> Simulation<'a> {
                 });
             }
             self.min_gap = self.min_gap.min(p.gap);
-            if p.gap < 0.0 {
+            self.rubs |= p.gap < 0.0;
+            if p.gap < 0.0 || laws.get(node).is_some_and(Option::is_some) {
                 c.cands.push(Cand::at(node, self.blades.n_contact, p));
             }
         }
@@ -1491,7 +1532,30 @@ impl<'a> Simulation<'a> {
         {
             casing_w(f, &cs.spline, c, nk)?;
         }
-        c.solve_multipliers(self.casing.gap_tolerance(), self.t1)?;
+        let tol = self.casing.gap_tolerance();
+        c.laws.clear();
+        if let Some(coating) = self.coating.as_mut().filter(|cs| cs.implicit()) {
+            let laws = c
+                .cands
+                .iter()
+                .map(|cd| coating.node_law[cd.node].map(|l| l.2));
+            c.laws.extend(laws);
+            // A tip that the solve takes through its element to the casing has worn it
+            // through: the element is removed and the tip is a Lagrange contact (as a tip
+            // predicted through it is, `CoatingStage::laws_of`), until none is left.
+            loop {
+                c.solve_multipliers(tol, self.t1)?;
+                let through = (0..nk).filter(|&k| c.laws[k].is_some()).find(|&k| {
+                    let wl: f64 = (0..nk).map(|l| c.w[k * nk + l] * c.lambda[l]).sum();
+                    c.d[k] + wl < -tol
+                });
+                let Some(k) = through else { break };
+                c.laws[k] = None;
+                coating.wear_through(c.cands[k].node);
+            }
+        } else {
+            c.solve_multipliers(tol, self.t1)?;
+        }
         self.clock.lap(Stage::ContactSolve);
         Ok(())
     }
@@ -1519,7 +1583,14 @@ impl<'a> Simulation<'a> {
             let at = (self.t1, tol);
             corrected_gaps(&self.blades, cs, &self.r_om, c, &mut self.projector, at)?;
             let settled = (0..nk).all(|k| {
-                let g = c.d[k];
+                // On a coating element the condition is on its compression (`coated_solve`).
+                let g = match c.laws.get(k).copied().flatten() {
+                    Some(law) => {
+                        c.d[k] - law.remaining
+                            + (c.lambda[k] + c.plastic[k] * law.stiffness) / law.stiffness
+                    }
+                    None => c.d[k],
+                };
                 if c.lambda[k] > 0.0 {
                     g.abs() <= tol
                 } else {
@@ -1527,7 +1598,8 @@ impl<'a> Simulation<'a> {
                 }
             });
             if settled || iteration == GAP_NEWTON_ITERATIONS {
-                // What is left penetrating after the last correction: this step's residual.
+                // What is left penetrating the casing after the last correction: this step's
+                // residual.
                 let left = (0..nk).map(|k| -c.d[k]).fold(0.0, f64::max);
                 self.residual = self.residual.max(left);
                 break;
@@ -1552,10 +1624,14 @@ impl<'a> Simulation<'a> {
         let b_nodes = &self.blades.nodes;
         let mut torque = 0.0;
         c.fi.iter_mut().for_each(|x| *x = 0.0);
-        if c.lambda[..c.cands.len()].iter().any(|&l| l != 0.0) {
+        let lagrange = |k: &usize| !c.on_coating(*k);
+        if (0..c.cands.len())
+            .filter(lagrange)
+            .any(|k| c.lambda[k] != 0.0)
+        {
             self.summary.closed_contact_steps += 1;
         }
-        for (cd, &l) in c.cands.iter().zip(&c.lambda) {
+        for (k, (cd, &l)) in c.cands.iter().zip(&c.lambda).enumerate() {
             if l == 0.0 {
                 continue;
             }
@@ -1563,8 +1639,13 @@ impl<'a> Simulation<'a> {
                 .iter_mut()
                 .zip(cd.f_loc.iter())
                 .for_each(|(x, f)| *x += l * f);
-            c.force_n[cd.blade] += l;
+            // The rotation works through coating forces too.
             torque += b_nodes[cd.node].cross(&(l * cd.fdir)).z;
+            if c.on_coating(k) {
+                // A coating force: `coating_forces` records it.
+                continue;
+            }
+            c.force_n[cd.blade] += l;
             self.summary.active_contacts += 1;
             if cd.slip {
                 c.force_t[cd.blade] += mu * l;
@@ -1585,6 +1666,22 @@ impl<'a> Simulation<'a> {
             self.residual_penetration()?;
         }
         self.clock.lap(Stage::Correction);
+        Ok(())
+    }
+
+    /// With a coating on a massless boundary: the coating forces and plastic shortenings the
+    /// contact solve found (box 4), into the coating's forces per blade and its pending
+    /// element states.
+    fn coating_forces(&mut self) -> Result<(), SimError> {
+        let (Some(cs), c) = (self.coating.as_mut(), &self.contact) else {
+            return Ok(());
+        };
+        for (k, cd) in c.cands.iter().enumerate() {
+            if c.on_coating(k) {
+                cs.implicit_force(cd.node, cd.blade, c.lambda[k], c.plastic[k])?;
+            }
+        }
+        cs.finish_step();
         Ok(())
     }
 
@@ -2299,6 +2396,9 @@ struct CoatingStage {
     max_wear_row: Vec<f64>,
     removed_row: Vec<usize>,
     out: CoatingOutput,
+    /// With a massless boundary, per blade-tip node the row, element and law of the element
+    /// it presses this step ([`CoatingStage::laws_of`]); empty with the paper's formulation.
+    node_law: Vec<Option<(usize, usize, CoatingLaw)>>,
 }
 
 impl CoatingStage {
@@ -2346,7 +2446,74 @@ impl CoatingStage {
                 thickness: cc.material.thickness,
                 ..Default::default()
             },
+            node_law: Vec::new(),
         })
+    }
+
+    /// Whether the coating force is solved with the displacement (massless boundary).
+    fn implicit(&self) -> bool {
+        !self.node_law.is_empty()
+    }
+
+    /// Step 1 with a massless boundary: a node with `d* ≤ 0` reached the casing: its element is
+    /// marked for removal and the node is a Lagrange contact (as in step 1 of the paper's
+    /// formulation). Every other node below the worn surface (`d* < e_abr (1 − ε_p)`) gets
+    /// the law of its element, which box 4 solves with the boundary's static response.
+    fn laws_of(&mut self, nci: usize, proj: &[Projection]) -> Result<(), SimError> {
+        self.pending.clear();
+        self.removals.clear();
+        self.blade_force.iter_mut().for_each(|x| *x = 0.0);
+        let e_abr = self.layer.material().thickness;
+        for (node, p) in proj.iter().enumerate() {
+            self.node_law[node] = None;
+            if p.gap >= e_abr {
+                continue;
+            }
+            let row = self.row_of[node % nci];
+            let (element, law) = self.layer.law(row, p.point.y.atan2(p.point.x))?;
+            if p.gap <= 0.0 {
+                self.removals.push((row, element));
+            } else if p.gap < law.remaining {
+                self.node_law[node] = Some((row, element, law));
+            }
+        }
+        Ok(())
+    }
+
+    /// The contact solve took `node` through its element to the casing: the element is removed.
+    fn wear_through(&mut self, node: usize) {
+        if let Some((row, element, _)) = self.node_law[node].take() {
+            self.removals.push((row, element));
+        }
+    }
+
+    /// The solved force `lambda` (N) of `node` (on blade `blade`) on its element, and the
+    /// element's plastic shortening `plastic` (m) in the step.
+    fn implicit_force(
+        &mut self,
+        node: usize,
+        blade: usize,
+        lambda: f64,
+        plastic: f64,
+    ) -> Result<(), SimError> {
+        let Some((row, element, _)) = self.node_law[node] else {
+            return Ok(());
+        };
+        if plastic > 0.0 {
+            let up = self.layer.plastic_update(row, element, plastic)?;
+            self.pending.push(up);
+        }
+        self.blade_force[blade] += lambda;
+        Ok(())
+    }
+
+    /// The step's coating statistics, once its forces are known.
+    fn finish_step(&mut self) {
+        if self.blade_force.iter().any(|&f| f > 0.0) {
+            self.out.coating_steps += 1;
+            let peak = self.blade_force.iter().fold(0.0f64, |m, &x| m.max(x));
+            self.out.peak_force = self.out.peak_force.max(peak);
+        }
     }
 
     /// Elastic stiffness `E A_r / e_abr` (N/m) of the elements of row `r`.
