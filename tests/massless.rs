@@ -159,13 +159,18 @@ fn coated_massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_
     let coating = || Some(CoatingCase::new(CoatingMaterial::nominal()));
     let mass = run_case(Boundary::Mass, Some(1e-7), None, coating());
     let massless = run_case(Boundary::Massless, None, None, coating());
+    assert_same_coated_answer("coated massless", &mass, &massless);
+}
+
+/// [`assert_same_answer`] and the final wear profiles within 10 % (relative L2).
+fn assert_same_coated_answer(label: &str, mass: &SimulationOutput, massless: &SimulationOutput) {
     let (cm, cml) = (
         mass.summary.coating.as_ref().unwrap(),
         massless.summary.coating.as_ref().unwrap(),
     );
-    let l2 = wear_rel_l2(&massless, &mass);
+    let l2 = wear_rel_l2(massless, mass);
     eprintln!(
-        "coated: max wear {:.4e} / {:.4e} m, coating steps {} / {}, peak coating force \
+        "{label}: max wear {:.4e} / {:.4e} m, coating steps {} / {}, peak coating force \
          {:.1} / {:.1} N, steps per element {:.2} / {:.2}, wear relative L2 {:.2} %",
         cm.max_wear_final,
         cml.max_wear_final,
@@ -178,8 +183,8 @@ fn coated_massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_
         100.0 * l2
     );
     assert!(cm.coating_steps > 0 && cml.coating_steps > 0);
-    assert_same_answer("coated massless", &mass, &massless);
-    assert!(l2 <= 0.10, "wear profile relative L2 {l2}");
+    assert_same_answer(label, mass, massless);
+    assert!(l2 <= 0.10, "{label}: wear profile relative L2 {l2}");
 }
 
 /// Mode cutoff of the fast massless configuration (Hz).

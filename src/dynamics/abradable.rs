@@ -85,7 +85,7 @@ pub enum AbradableError {
     /// A non-finite angle or incursion.
     #[error("`{name}` must be finite (got {value})")]
     NotFinite {
-        /// Name of the quantity (`theta` in rad, `incursion` in m).
+        /// Name of the quantity (`theta` in rad, `incursion` and `plastic shortening` in m).
         name: &'static str,
         /// The rejected value.
         value: f64,
@@ -327,6 +327,28 @@ impl CoatingLayer {
             });
         }
         Ok(())
+    }
+
+    /// The angles (rad) of the centres of the elements strictly between those under `from` and
+    /// `to` (rad), the shorter way round, in the order a tip going from `from` to `to` passes
+    /// them: the elements a tip jumps over in a step that moves it more than an element.
+    pub(crate) fn centres_between(
+        &self,
+        from: f64,
+        to: f64,
+    ) -> Result<impl Iterator<Item = f64> + use<>, AbradableError> {
+        let (i0, i1) = (self.element_index(from)?, self.element_index(to)?);
+        let eta = self.eta as isize;
+        // Signed element count from i0 to i1 in (−η/2, η/2].
+        let mut diff = (i1 as isize - i0 as isize).rem_euclid(eta);
+        if diff > eta / 2 {
+            diff -= eta;
+        }
+        let width = TAU / self.eta as f64;
+        Ok((1..diff.abs()).map(move |k| {
+            let e = (i0 as isize + diff.signum() * k).rem_euclid(eta);
+            (e as f64 + 0.5) * width
+        }))
     }
 
     /// Committed plastic strain of element `element` of row `row`.
@@ -688,6 +710,29 @@ mod tests {
         // Every element centre maps to its own index.
         for i in 0..6000 {
             assert_eq!(layer.element_index((i as f64 + 0.5) * w).unwrap(), i);
+        }
+    }
+
+    #[test]
+    fn centres_between_are_the_jumped_elements_in_order() {
+        let layer = CoatingLayer::new(mat(), 100, vec![1e-6]).unwrap();
+        let w = TAU / 100.0;
+        let between = |a: f64, b: f64| -> Vec<usize> {
+            (layer.centres_between(a * w, b * w).unwrap())
+                .map(|t| layer.element_index(t).unwrap())
+                .collect()
+        };
+        assert_eq!(between(10.9, 12.1), vec![11]);
+        assert_eq!(between(10.1, 11.3), Vec::<usize>::new());
+        assert_eq!(between(10.5, 10.6), Vec::<usize>::new());
+        assert_eq!(between(12.1, 9.9), vec![11, 10]);
+        // Across the seam, both ways.
+        assert_eq!(between(98.5, 101.5), vec![99, 0]);
+        assert_eq!(between(1.5, -1.5), vec![0, 99]);
+        // Every centre lies inside its own element.
+        for t in layer.centres_between(0.2 * w, 5.7 * w).unwrap() {
+            let e = layer.element_index(t).unwrap() as f64;
+            assert!((t / w - e - 0.5).abs() < 1e-9);
         }
     }
 

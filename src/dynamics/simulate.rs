@@ -634,7 +634,12 @@ fn coating_stage(
             cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;
             match case.numerics.boundary {
                 Boundary::Mass => cs.check_stability(blades, side.flexible.as_mut())?,
-                Boundary::Massless => cs.node_law = vec![None; blades.n_blades * blades.n_contact],
+                Boundary::Massless => {
+                    let nn = blades.n_blades * blades.n_contact;
+                    cs.node_law = vec![None; nn];
+                    cs.theta_now = vec![f64::NAN; nn];
+                    cs.theta_prev = vec![f64::NAN; nn];
+                }
             }
             Some(cs)
         }
@@ -1551,7 +1556,7 @@ impl<'a> Simulation<'a> {
                 });
                 let Some(k) = through else { break };
                 c.laws[k] = None;
-                coating.wear_through(c.cands[k].node);
+                coating.wear_through(c.cands[k].node)?;
             }
         } else {
             c.solve_multipliers(tol, self.t1)?;
@@ -1678,7 +1683,8 @@ impl<'a> Simulation<'a> {
         };
         for (k, cd) in c.cands.iter().enumerate() {
             if c.on_coating(k) {
-                cs.implicit_force(cd.node, cd.blade, c.lambda[k], c.plastic[k])?;
+                // `refine_contact` leaves the gaps after the correction in `d`.
+                cs.implicit_force(cd.node, cd.blade, (c.lambda[k], c.plastic[k], c.d[k]))?;
             }
         }
         cs.finish_step();
@@ -2399,6 +2405,11 @@ struct CoatingStage {
     /// With a massless boundary, per blade-tip node the row, element and law of the element
     /// it presses this step ([`CoatingStage::laws_of`]); empty with the paper's formulation.
     node_law: Vec<Option<(usize, usize, CoatingLaw)>>,
+    /// With a massless boundary, per blade-tip node the fixed-frame angle (rad) of its closest
+    /// point in this step and in the previous one, NaN when it was not within `e_abr` of the
+    /// casing: a step may move a tip over more than an element (`CoatingStage::cut_swept`).
+    theta_now: Vec<f64>,
+    theta_prev: Vec<f64>,
 }
 
 impl CoatingStage {
@@ -2447,6 +2458,8 @@ impl CoatingStage {
                 ..Default::default()
             },
             node_law: Vec::new(),
+            theta_now: Vec::new(),
+            theta_prev: Vec::new(),
         })
     }
 
@@ -2464,37 +2477,72 @@ impl CoatingStage {
         self.removals.clear();
         self.blade_force.iter_mut().for_each(|x| *x = 0.0);
         let e_abr = self.layer.material().thickness;
+        std::mem::swap(&mut self.theta_prev, &mut self.theta_now);
         for (node, p) in proj.iter().enumerate() {
             self.node_law[node] = None;
+            self.theta_now[node] = f64::NAN;
             if p.gap >= e_abr {
                 continue;
             }
             let row = self.row_of[node % nci];
-            let (element, law) = self.layer.law(row, p.point.y.atan2(p.point.x))?;
+            let theta = p.point.y.atan2(p.point.x);
+            self.theta_now[node] = theta;
+            let (element, law) = self.layer.law(row, theta)?;
             if p.gap <= 0.0 {
                 self.removals.push((row, element));
+                self.cut_swept(node, row, p.gap)?;
             } else if p.gap < law.remaining {
                 self.node_law[node] = Some((row, element, law));
+            } else {
+                // Above its element's worn surface, maybe not above the ones jumped over.
+                self.cut_swept(node, row, p.gap)?;
             }
         }
         Ok(())
     }
 
-    /// The contact solve took `node` through its element to the casing: the element is removed.
-    fn wear_through(&mut self, node: usize) {
-        if let Some((row, element, _)) = self.node_law[node].take() {
-            self.removals.push((row, element));
+    /// The elements that tip `node` (row `row`) jumped over in the step, between its element
+    /// of the previous step and this one, are cut as the tip's own element is, at the tip's
+    /// gap to the casing at the end of the step `gap` (m): removed when it is ≤ 0. (The paper's
+    /// steps move a tip by less than an element; a massless boundary's may not.)
+    fn cut_swept(&mut self, node: usize, row: usize, gap: f64) -> Result<(), SimError> {
+        let (from, to) = (self.theta_prev[node], self.theta_now[node]);
+        if from.is_nan() || to.is_nan() {
+            return Ok(());
         }
+        let e_abr = self.layer.material().thickness;
+        for theta in self.layer.centres_between(from, to)? {
+            if gap <= 0.0 {
+                let element = self.layer.element_index(theta)?;
+                self.removals.push((row, element));
+                continue;
+            }
+            let (f, up) = self.layer.trial(row, theta, e_abr - gap)?;
+            if f > 0.0 {
+                self.pending.push(up);
+            }
+        }
+        Ok(())
     }
 
-    /// The solved force `lambda` (N) of `node` (on blade `blade`) on its element, and the
-    /// element's plastic shortening `plastic` (m) in the step.
+    /// The contact solve took `node` through its element to the casing: the element, and any
+    /// jumped over, are removed.
+    fn wear_through(&mut self, node: usize) -> Result<(), SimError> {
+        if let Some((row, element, _)) = self.node_law[node].take() {
+            self.removals.push((row, element));
+            self.cut_swept(node, row, 0.0)?;
+        }
+        Ok(())
+    }
+
+    /// The solved force `lambda` (N) of `node` (on blade `blade`) on its element, the
+    /// element's plastic shortening `plastic` (m) in the step, and the tip's gap to the casing
+    /// at the end of the step `gap` (m), at which the elements it jumped over are cut.
     fn implicit_force(
         &mut self,
         node: usize,
         blade: usize,
-        lambda: f64,
-        plastic: f64,
+        (lambda, plastic, gap): (f64, f64, f64),
     ) -> Result<(), SimError> {
         let Some((row, element, _)) = self.node_law[node] else {
             return Ok(());
@@ -2503,6 +2551,7 @@ impl CoatingStage {
             let up = self.layer.plastic_update(row, element, plastic)?;
             self.pending.push(up);
         }
+        self.cut_swept(node, row, gap)?;
         self.blade_force[blade] += lambda;
         Ok(())
     }
@@ -3241,6 +3290,106 @@ mod tests {
                 w[1]
             );
         }
+    }
+
+    /// [`spring_mass_rom`] with a massless boundary thrown outward at `v₀` into an abradable
+    /// coating (nominal material, tip area 1e-6 m²) on a rigid cylinder, the tip `g₀` below
+    /// the unworn surface at rest. The element is stiffer than the boundary is flexible
+    /// (`k w = 1.17` with `w = 1/k_c + 1/k₀`: the explicit coating force would not be stable), so
+    /// its force is solved with the boundary's static response. At the end of every step the
+    /// recorded force λ, the tip's depth below the unworn surface `p = u − g₀` and the wear
+    /// `Δ` meet the element's law: `λ = k (p − Δ)` when it pushes, never above the hardened
+    /// yield force `λ_Y + K' Δ` and on it whenever the wear grew; no force off the worn
+    /// surface.
+    #[test]
+    fn massless_boundary_tip_thrown_into_a_coating_meets_the_element_law_every_step() {
+        use crate::dynamics::abradable::CoatingMaterial;
+        let (m, k0, kc, r0, g0, area) = (0.1, 4e6, 1.2e7, 0.2, 1e-4, 1e-6);
+        let mat = CoatingMaterial::nominal();
+        let e = mat.thickness;
+        let rom = spring_mass_rom(m, k0, kc, r0);
+        let casing = CasingModel::Rigid(RigidSurface {
+            n_sectors: 64,
+            meridian: vec![[r0 + g0 + e, -0.01], [r0 + g0 + e, 0.01]],
+            shape: RigidShape::Lobes {
+                lobes: 0,
+                amplitude: 0.0,
+            },
+        });
+        let (k, kh) = (mat.young * area / e, mat.plastic_modulus * area / e);
+        let yield0 = mat.yield_stress * area;
+        assert!(k * (1.0 / kc + 1.0 / k0) > 1.0);
+        let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
+        let v0 = 3.0 * g0 * w0;
+        let case = Case {
+            omega: 0.0,
+            duration: 2.0 * 2.0 * PI / w0,
+            friction: 0.0,
+            load: None,
+            clearance_offset: vec![],
+            casing_probes: vec![],
+            probes: vec![],
+            initial_velocity: InitialVelocity {
+                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: Some(0.02 / w1),
+                decimation: 1,
+                newton_tolerance: 1e-12,
+                boundary: Boundary::Massless,
+                ..Default::default()
+            },
+            coating: Some(CoatingCase {
+                eta: 600,
+                tip_area: vec![area],
+                ..CoatingCase::new(mat)
+            }),
+        };
+        let out = simulate(&case, &rom, &casing, None).unwrap();
+        let (force, wear) = (&out.coating_blade_force[0], &out.coating_max_wear[0]);
+        // The solve closes the element's law to the gap tolerance (2e-13 m at r₀).
+        let tol = k * 1e-12 + 1e-9 * yield0;
+        let (mut plastic_steps, mut elastic_steps) = (0, 0);
+        for n in 1..out.time.len() {
+            let (l, p, wn) = (force[n], out.blade_le_radial[0][n] - g0, wear[n]);
+            let limit = yield0 + kh * wn;
+            assert!(
+                l <= limit + tol,
+                "step {n}: λ {l} above the yield force {limit}"
+            );
+            if l > 0.0 {
+                let elastic = k * (p - wn);
+                assert!(
+                    (l - elastic).abs() <= tol,
+                    "step {n}: λ {l} vs k (p − Δ) {elastic}"
+                );
+                if wn > wear[n - 1] {
+                    assert!(
+                        (l - limit).abs() <= tol,
+                        "step {n}: wear grew off the yield force"
+                    );
+                    plastic_steps += 1;
+                } else {
+                    elastic_steps += 1;
+                }
+            } else {
+                assert!(
+                    p <= wn + 1e-12,
+                    "step {n}: tip {p:e} below the worn surface {wn:e}"
+                );
+            }
+        }
+        eprintln!(
+            "{plastic_steps} plastic and {elastic_steps} elastic coating steps, final wear {:.4e} m",
+            wear.last().unwrap()
+        );
+        assert!(plastic_steps > 10 && elastic_steps > 10);
+        assert!(*wear.last().unwrap() > 10.0 * yield0 / k);
+        assert_eq!(
+            out.summary.contact_steps, 0,
+            "the tip never reaches the casing"
+        );
     }
 
     /// A one-node blade (mass m, stiffness k in every direction) at rest, sweeping past one
