@@ -2892,6 +2892,7 @@ impl CoatingStage {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::abradable::CoatingMaterial;
     use crate::dynamics::numerics::Numerics;
     use crate::dynamics::scenario::{InitialVelocity, LobeLoad, RigidShape, RigidSurface};
     use crate::fixtures::{SyntheticSpec, synthetic_rom};
@@ -3303,50 +3304,12 @@ mod tests {
     /// surface.
     #[test]
     fn massless_boundary_tip_thrown_into_a_coating_meets_the_element_law_every_step() {
-        use crate::dynamics::abradable::CoatingMaterial;
-        let (m, k0, kc, r0, g0, area) = (0.1, 4e6, 1.2e7, 0.2, 1e-4, 1e-6);
         let mat = CoatingMaterial::nominal();
+        let (out, [g0, area, k0, kc]) = thrown_into_coating(mat);
         let e = mat.thickness;
-        let rom = spring_mass_rom(m, k0, kc, r0);
-        let casing = CasingModel::Rigid(RigidSurface {
-            n_sectors: 64,
-            meridian: vec![[r0 + g0 + e, -0.01], [r0 + g0 + e, 0.01]],
-            shape: RigidShape::Lobes {
-                lobes: 0,
-                amplitude: 0.0,
-            },
-        });
         let (k, kh) = (mat.young * area / e, mat.plastic_modulus * area / e);
         let yield0 = mat.yield_stress * area;
         assert!(k * (1.0 / kc + 1.0 / k0) > 1.0);
-        let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
-        let v0 = 3.0 * g0 * w0;
-        let case = Case {
-            omega: 0.0,
-            duration: 2.0 * 2.0 * PI / w0,
-            friction: 0.0,
-            load: None,
-            clearance_offset: vec![],
-            casing_probes: vec![],
-            probes: vec![],
-            initial_velocity: InitialVelocity {
-                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
-                casing: None,
-            },
-            numerics: Numerics {
-                time_step: Some(0.02 / w1),
-                decimation: 1,
-                newton_tolerance: 1e-12,
-                boundary: Boundary::Massless,
-                ..Default::default()
-            },
-            coating: Some(CoatingCase {
-                eta: 600,
-                tip_area: vec![area],
-                ..CoatingCase::new(mat)
-            }),
-        };
-        let out = simulate(&case, &rom, &casing, None).unwrap();
         let (force, wear) = (&out.coating_blade_force[0], &out.coating_max_wear[0]);
         // The solve closes the element's law to the gap tolerance (2e-13 m at r₀).
         let tol = k * 1e-12 + 1e-9 * yield0;
@@ -3390,6 +3353,87 @@ mod tests {
             out.summary.contact_steps, 0,
             "the tip never reaches the casing"
         );
+    }
+
+    /// The run of [`massless_boundary_tip_thrown_into_a_coating_meets_the_element_law_every_step`]
+    /// with coating `mat`, and its `[g₀, tip area, k₀, k_c]`.
+    fn thrown_into_coating(mat: CoatingMaterial) -> (SimulationOutput, [f64; 4]) {
+        let (m, k0, kc, r0, g0, area) = (0.1, 4e6, 1.2e7, 0.2, 1e-4, 1e-6);
+        let e = mat.thickness;
+        let rom = spring_mass_rom(m, k0, kc, r0);
+        let casing = CasingModel::Rigid(RigidSurface {
+            n_sectors: 64,
+            meridian: vec![[r0 + g0 + e, -0.01], [r0 + g0 + e, 0.01]],
+            shape: RigidShape::Lobes {
+                lobes: 0,
+                amplitude: 0.0,
+            },
+        });
+        let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
+        let v0 = 3.0 * g0 * w0;
+        let case = Case {
+            omega: 0.0,
+            duration: 2.0 * 2.0 * PI / w0,
+            friction: 0.0,
+            load: None,
+            clearance_offset: vec![],
+            casing_probes: vec![],
+            probes: vec![],
+            initial_velocity: InitialVelocity {
+                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: Some(0.02 / w1),
+                decimation: 1,
+                newton_tolerance: 1e-12,
+                boundary: Boundary::Massless,
+                ..Default::default()
+            },
+            coating: Some(CoatingCase {
+                eta: 600,
+                tip_area: vec![area],
+                ..CoatingCase::new(mat)
+            }),
+        };
+        let out = simulate(&case, &rom, &casing, None).unwrap();
+        (out, [g0, area, k0, kc])
+    }
+
+    /// The same tip into a coating too thin to stop it (50 µm): the element is worn through,
+    /// removed, and the tip is then a Lagrange contact with the casing, which it never
+    /// penetrates.
+    #[test]
+    fn massless_boundary_tip_wearing_through_a_coating_switches_to_lagrange_contact() {
+        let mat = CoatingMaterial {
+            thickness: 5e-5,
+            ..CoatingMaterial::nominal()
+        };
+        let (out, [g0, ..]) = thrown_into_coating(mat);
+        let casing_at = g0 + mat.thickness;
+        let co = out.summary.coating.as_ref().unwrap();
+        eprintln!(
+            "contact steps {}, coating steps {}, removed {:?}, residual {:.2e} m",
+            out.summary.contact_steps,
+            co.coating_steps,
+            co.removed_elements,
+            out.summary.max_residual_penetration
+        );
+        assert!(co.coating_steps > 0 && out.summary.contact_steps > 0);
+        assert_eq!(co.removed_elements, vec![1]);
+        assert_eq!(co.max_wear_final, mat.thickness);
+        for (t, u) in out.time.iter().zip(&out.blade_le_radial[0]) {
+            assert!(
+                *u <= casing_at + 1e-12,
+                "t = {t}: tip {u:e} beyond the casing"
+            );
+        }
+        assert!(
+            out.blade_le_radial[0]
+                .iter()
+                .any(|u| (u - casing_at).abs() < 1e-12)
+        );
+        assert!(out.summary.max_residual_penetration <= 1e-12 * casing_at);
     }
 
     /// A one-node blade (mass m, stiffness k in every direction) at rest, sweeping past one
