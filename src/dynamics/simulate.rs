@@ -4,7 +4,9 @@
 //! structures, rebuild the casing surface (`casing_surface`) from the predicted casing,
 //! `project` every blade-tip node and take its gap, apply the abradable `coating` (Fig. 11),
 //! and when some gap is negative solve the contact (`contact_solve`) and `correct` both
-//! structures; then `advance` and `record` a sample for the caller's [`Recorder`].
+//! structures; then `advance` and `record` a sample for the caller's [`Recorder`]. With a
+//! massless boundary the coating's forces are not applied in `coating` but solved with the
+//! contact (`contact_solve`, see `CoatingStage`).
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
@@ -2382,6 +2384,15 @@ struct StepFrames<'a> {
 ///    removal too ([`CoatingStage::flag_penetrations`]).
 /// 3. [`CoatingStage::commit`] at the end of the step commits the trial element states and the
 ///    removals (plastic strain never decreases, so the order does not matter).
+///
+/// With a massless boundary a tip node has no mass and steps 1–2 would not be stable (`k w`
+/// is not small, [`CoatingStage::check_stability`]): [`CoatingStage::laws_of`] replaces them.
+/// A node with `d* ≤ 0` is handled as in step 1; every node below the worn surface becomes a
+/// candidate of the contact problem with its element's law, and box 4 solves its force and
+/// plastic shortening with the Lagrange multipliers ([`coated_solve`]); a node the solve takes
+/// to the casing is removed and solved again as a Lagrange contact
+/// ([`CoatingStage::wear_through`]). [`CoatingStage::implicit_force`] then keeps the solved
+/// states, and step 3 commits them.
 struct CoatingStage {
     layer: CoatingLayer,
     /// Impeller contact node index j → coating row.
