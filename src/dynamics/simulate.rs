@@ -2890,7 +2890,8 @@ impl CoatingStage {
                 return Err(SimError::InvalidCase(format!(
                     "coating too stiff for the time step: row {} has E·A/e_abr = {k:.3e} N/m and \
                      contact flexibility {:.3e} m/N, k·w = {ratio:.3} ≥ 1; reduce numerics.time_step \
-                     (k·w ∝ h²) or the tip area",
+                     (k·w ∝ h²) or the tip area, or set numerics.boundary \"massless\" (the coating \
+                     force is then solved with the displacement)",
                     self.row_of[j],
                     wi + w_c
                 )));
