@@ -6,8 +6,9 @@
 //! cutoff. Shortened to 8 ms (the load ramps over 4 ms, then is released).
 
 use rubscan::analysis::spectra::SpectrumAnalyzer;
+use rubscan::dynamics::abradable::CoatingMaterial;
 use rubscan::dynamics::numerics::Boundary;
-use rubscan::dynamics::scenario::{InitialVelocity, LobeLoad};
+use rubscan::dynamics::scenario::{CoatingCase, InitialVelocity, LobeLoad};
 use rubscan::model::build::{CasingSpec, ImpellerSpec};
 use rubscan::{Case, CasingModel, Numerics, SimulationOutput, casing_rom, impeller_rom, simulate};
 
@@ -15,8 +16,23 @@ const OMEGA: f64 = 3000.0;
 
 /// The case at step `h` (the default step when `None`), with an optional mode cutoff (Hz).
 fn run(boundary: Boundary, h: Option<f64>, cutoff: Option<f64>) -> SimulationOutput {
+    run_case(boundary, h, cutoff, None)
+}
+
+/// [`run`] with an optional abradable coating; a coated case keeps the built-in tip clearance
+/// to the unworn coating surface (the tips shifted inward by its thickness, as a sweep does).
+fn run_case(
+    boundary: Boundary,
+    h: Option<f64>,
+    cutoff: Option<f64>,
+    coating: Option<CoatingCase>,
+) -> SimulationOutput {
     let imp = impeller_rom(&ImpellerSpec::default()).unwrap();
     let cas = casing_rom(&CasingSpec::default()).unwrap();
+    let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap() + 1;
+    let clearance_offset = coating
+        .as_ref()
+        .map_or(vec![], |c| vec![-c.material.thickness; rows]);
     let case = Case {
         omega: OMEGA,
         duration: 8e-3,
@@ -27,7 +43,7 @@ fn run(boundary: Boundary, h: Option<f64>, cutoff: Option<f64>) -> SimulationOut
             ramp_time: 4e-3,
             hold_time: 0.0,
         }),
-        clearance_offset: vec![],
+        clearance_offset,
         casing_probes: vec![[0, 4], [25, 4]],
         probes: vec![],
         initial_velocity: InitialVelocity::default(),
@@ -39,7 +55,7 @@ fn run(boundary: Boundary, h: Option<f64>, cutoff: Option<f64>) -> SimulationOut
             mode_cutoff_hz: cutoff,
             ..Default::default()
         },
-        coating: None,
+        coating,
     };
     simulate(&case, &imp, &CasingModel::Flexible(cas), None).unwrap()
 }
@@ -71,7 +87,6 @@ fn rel(a: f64, b: f64) -> f64 {
 /// Checks `massless` against the paper formulation's `mass` run: peak blade and casing
 /// amplitudes within 5 %, the same dominant frequency, residual ≤ 1e-8 of the level.
 fn assert_same_answer(label: &str, mass: &SimulationOutput, massless: &SimulationOutput) {
-    assert!(mass.summary.contact_steps > 0 && massless.summary.contact_steps > 0);
     let (te, te_ml) = (peak(&mass.blade_te_radial), peak(&massless.blade_te_radial));
     let (cas_m, cas_ml) = (peak(&mass.casing_radial), peak(&massless.casing_radial));
     let ((f, df), (f_ml, _)) = (dominant_frequency(mass), dominant_frequency(massless));
@@ -112,10 +127,64 @@ fn assert_same_answer(label: &str, mass: &SimulationOutput, massless: &Simulatio
 fn massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models() {
     let mass = run(Boundary::Mass, Some(1e-7), None);
     let massless = run(Boundary::Massless, None, None);
+    assert!(mass.summary.contact_steps > 0 && massless.summary.contact_steps > 0);
     assert_same_answer("massless", &mass, &massless);
     let cut = run(Boundary::Massless, None, Some(CUTOFF_HZ));
     assert!(cut.summary.time_step > 4.0 * massless.summary.time_step);
     assert_same_answer("massless, 50 kHz cutoff", &mass, &cut);
+}
+
+/// Relative L2 distance of the final wear profiles of `a` to those of the reference `b` (all
+/// rows, the same η elements).
+fn wear_rel_l2(a: &SimulationOutput, b: &SimulationOutput) -> f64 {
+    let wear = |o: &SimulationOutput| o.summary.coating.as_ref().unwrap().final_wear.clone();
+    let (wa, wb) = (wear(a), wear(b));
+    let (mut num, mut den) = (0.0, 0.0);
+    for (pa, pb) in wa.iter().zip(&wb) {
+        assert_eq!(pa.len(), pb.len());
+        for (x, y) in pa.iter().zip(pb) {
+            num += (x - y) * (x - y);
+            den += y * y;
+        }
+    }
+    (num / den).sqrt()
+}
+
+/// The same comparison with the nominal abradable coating (issue #24's coated case): the
+/// paper's explicit coating force at h = 1e-7 s against the coating force solved with the
+/// static boundary at the massless default step; also the final wear profiles within 10 %
+/// (relative L2).
+#[test]
+fn coated_massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models() {
+    let coating = || Some(CoatingCase::new(CoatingMaterial::nominal()));
+    let mass = run_case(Boundary::Mass, Some(1e-7), None, coating());
+    let massless = run_case(Boundary::Massless, None, None, coating());
+    assert_same_coated_answer("coated massless", &mass, &massless);
+}
+
+/// [`assert_same_answer`] and the final wear profiles within 10 % (relative L2).
+fn assert_same_coated_answer(label: &str, mass: &SimulationOutput, massless: &SimulationOutput) {
+    let (cm, cml) = (
+        mass.summary.coating.as_ref().unwrap(),
+        massless.summary.coating.as_ref().unwrap(),
+    );
+    let l2 = wear_rel_l2(massless, mass);
+    eprintln!(
+        "{label}: max wear {:.4e} / {:.4e} m, coating steps {} / {}, peak coating force \
+         {:.1} / {:.1} N, steps per element {:.2} / {:.2}, wear relative L2 {:.2} %",
+        cm.max_wear_final,
+        cml.max_wear_final,
+        cm.coating_steps,
+        cml.coating_steps,
+        cm.peak_force,
+        cml.peak_force,
+        cm.steps_per_element,
+        cml.steps_per_element,
+        100.0 * l2
+    );
+    assert!(cm.coating_steps > 0 && cml.coating_steps > 0);
+    assert_same_answer(label, mass, massless);
+    assert!(l2 <= 0.10, "{label}: wear profile relative L2 {l2}");
 }
 
 /// Mode cutoff of the fast massless configuration (Hz).

@@ -22,6 +22,8 @@ pub struct BenchResult {
     /// Fraction of the steps with at least one contact candidate (they run the contact
     /// solve and the correction).
     pub contact_step_fraction: f64,
+    /// Fraction of the steps in which the abradable coating pushes some tip (0 uncoated).
+    pub coating_step_fraction: f64,
     /// Steps run.
     pub n_steps: usize,
     /// The loop time per step split by stage (µs per step).
@@ -147,6 +149,9 @@ pub fn bench_run(
         },
         time_step: out.summary.time_step,
         steps_per_revolution: out.summary.steps_per_revolution,
+        coating_step_fraction: out.summary.coating.as_ref().map_or(0.0, |c| {
+            c.coating_steps as f64 / out.summary.n_steps.max(1) as f64
+        }),
     })
 }
 

@@ -85,7 +85,7 @@ pub enum AbradableError {
     /// A non-finite angle or incursion.
     #[error("`{name}` must be finite (got {value})")]
     NotFinite {
-        /// Name of the quantity (`theta` in rad, `incursion` in m).
+        /// Name of the quantity (`theta` in rad, `incursion` and `plastic shortening` in m).
         name: &'static str,
         /// The rejected value.
         value: f64,
@@ -216,6 +216,25 @@ pub(crate) struct ElementUpdate {
     pub reaches_casing: bool,
 }
 
+/// One element's law as the contact solve of a massless boundary reads it: the element is a
+/// spring in series with the boundary's static flexibility, so its force is solved with the
+/// tip displacement instead of being evaluated on the predicted one (see
+/// `contact_solve::coated_solve`). With `p` the tip's depth below the worn surface (m) and `Δp`
+/// the plastic shortening of the step (m), the element carries `λ = k (p − Δp) ≥ 0` and yields
+/// when `λ = λ_Y + K' Δp` ([`CoatingMaterial::return_map`] in forces and lengths).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CoatingLaw {
+    /// Gap to the casing (m) at which the tip meets the worn surface: `e_abr (1 − ε_p)`.
+    pub remaining: f64,
+    /// Elastic stiffness `k = E A / e_abr` (N/m).
+    pub stiffness: f64,
+    /// Force at which the element yields, `λ_Y = A (σ_Y + K ε_p)` (N).
+    pub yield_force: f64,
+    /// Hardening stiffness `K' = K A / e_abr` (N/m): the yield force per metre of plastic
+    /// shortening.
+    pub hardening: f64,
+}
+
 /// State of the whole coating: `n_rows × η` elements.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub(crate) struct CoatingLayer {
@@ -310,6 +329,28 @@ impl CoatingLayer {
         Ok(())
     }
 
+    /// The angles (rad) of the centres of the elements strictly between those under `from` and
+    /// `to` (rad), the shorter way round, in the order a tip going from `from` to `to` passes
+    /// them: the elements a tip jumps over in a step that moves it more than an element.
+    pub(crate) fn centres_between(
+        &self,
+        from: f64,
+        to: f64,
+    ) -> Result<impl Iterator<Item = f64> + use<>, AbradableError> {
+        let (i0, i1) = (self.element_index(from)?, self.element_index(to)?);
+        let eta = self.eta as isize;
+        // Signed element count from i0 to i1 in (−η/2, η/2].
+        let mut diff = (i1 as isize - i0 as isize).rem_euclid(eta);
+        if diff > eta / 2 {
+            diff -= eta;
+        }
+        let width = TAU / self.eta as f64;
+        Ok((1..diff.abs()).map(move |k| {
+            let e = (i0 as isize + diff.signum() * k).rem_euclid(eta);
+            (e as f64 + 0.5) * width
+        }))
+    }
+
     /// Committed plastic strain of element `element` of row `row`.
     pub(crate) fn plastic_strain(&self, row: usize, element: usize) -> Result<f64, AbradableError> {
         self.check_row(row)?;
@@ -365,6 +406,52 @@ impl CoatingLayer {
             reaches_casing: incursion >= self.material.thickness,
         };
         Ok((sigma * self.tip_area[row], update))
+    }
+
+    /// The element under angle `theta` (rad) in row `row` and its law for the implicit solve.
+    pub(crate) fn law(
+        &self,
+        row: usize,
+        theta: f64,
+    ) -> Result<(usize, CoatingLaw), AbradableError> {
+        self.check_row(row)?;
+        let element = self.element_index(theta)?;
+        let m = &self.material;
+        let (area, eps_p) = (
+            self.tip_area[row],
+            self.plastic_strain[row * self.eta + element],
+        );
+        let law = CoatingLaw {
+            remaining: m.thickness * (1.0 - eps_p),
+            stiffness: m.young * area / m.thickness,
+            yield_force: area * (m.yield_stress + m.plastic_modulus * eps_p),
+            hardening: m.plastic_modulus * area / m.thickness,
+        };
+        Ok((element, law))
+    }
+
+    /// The update of element `element` of row `row` after a plastic shortening `plastic` (m,
+    /// ≥ 0) found by the implicit solve; `reaches_casing` is false (a tip that reaches the
+    /// casing is removed by the caller instead).
+    pub(crate) fn plastic_update(
+        &self,
+        row: usize,
+        element: usize,
+        plastic: f64,
+    ) -> Result<ElementUpdate, AbradableError> {
+        let eps_p = self.plastic_strain(row, element)?;
+        if !plastic.is_finite() {
+            return Err(AbradableError::NotFinite {
+                name: "plastic shortening",
+                value: plastic,
+            });
+        }
+        Ok(ElementUpdate {
+            row,
+            element,
+            plastic_strain: (eps_p + plastic.max(0.0) / self.material.thickness).min(1.0),
+            reaches_casing: false,
+        })
     }
 
     /// Commits an accepted update. Plastic strain never decreases, so the element keeps
@@ -623,6 +710,29 @@ mod tests {
         // Every element centre maps to its own index.
         for i in 0..6000 {
             assert_eq!(layer.element_index((i as f64 + 0.5) * w).unwrap(), i);
+        }
+    }
+
+    #[test]
+    fn centres_between_are_the_jumped_elements_in_order() {
+        let layer = CoatingLayer::new(mat(), 100, vec![1e-6]).unwrap();
+        let w = TAU / 100.0;
+        let between = |a: f64, b: f64| -> Vec<usize> {
+            (layer.centres_between(a * w, b * w).unwrap())
+                .map(|t| layer.element_index(t).unwrap())
+                .collect()
+        };
+        assert_eq!(between(10.9, 12.1), vec![11]);
+        assert_eq!(between(10.1, 11.3), Vec::<usize>::new());
+        assert_eq!(between(10.5, 10.6), Vec::<usize>::new());
+        assert_eq!(between(12.1, 9.9), vec![11, 10]);
+        // Across the seam, both ways.
+        assert_eq!(between(98.5, 101.5), vec![99, 0]);
+        assert_eq!(between(1.5, -1.5), vec![0, 99]);
+        // Every centre lies inside its own element.
+        for t in layer.centres_between(0.2 * w, 5.7 * w).unwrap() {
+            let e = layer.element_index(t).unwrap() as f64;
+            assert!((t / w - e - 0.5).abs() < 1e-9);
         }
     }
 

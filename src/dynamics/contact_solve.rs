@@ -14,6 +14,7 @@
 //! the casing row is `−Σ w_(i,j) R(θ_i)ᵀ n` (gap) and the casing force `−λ (n + μ t)` at `S`.
 
 use crate::contact::CasingSpline;
+use crate::dynamics::abradable::CoatingLaw;
 use crate::dynamics::kernel::StructureKernel;
 use crate::model::cyclic::rot_z;
 use crate::simd::{self, Isa};
@@ -393,6 +394,96 @@ pub fn active_set_solve(
     })
 }
 
+/// The buffers of [`coated_solve`]: its complementarity problem of `n + n_c` unknowns (`n_c`
+/// coating rows), grown on first use and kept (no allocation once the largest step is seen).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CoatedBuffers {
+    m: Vec<f64>,
+    q: Vec<f64>,
+    z: Vec<f64>,
+    active: Vec<usize>,
+    lu: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+/// The contact problem of a step whose candidates may sit on abradable coating elements, for a
+/// massless boundary (#24): the coating force is solved with the boundary's static response,
+/// as the Lagrange multipliers are. Candidate `k` without a law is a Lagrange contact with the
+/// casing (eq. 18: `g_k = d_k + Σ_l W_kl λ_l ≥ 0`, `λ_k ≥ 0`, complementary). Candidate `k` on
+/// an element of law `laws[k]` carries the element's force `λ_k` with the plastic shortening
+/// `Δp_k ≥ 0` (m) of the step, where its linearised depth below the worn surface is
+/// `p_k = remaining − g_k`:
+/// - `r_k = −p_k + Δp_k + λ_k / k ≥ 0`, `λ_k ≥ 0`, complementary: the element, of stiffness
+///   `k`, is compressed by `p_k − Δp_k` when it pushes, and carries no tension;
+/// - `s_k = (λ_Y + K' Δp_k − λ_k) / k ≥ 0`, `Δp_k ≥ 0`, complementary: it shortens plastically
+///   only at its (hardening) yield force, the return mapping of
+///   `CoatingMaterial::return_map` in forces and lengths.
+///
+/// With `μ_k = k Δp_k` (N) as the second unknown every row is a length (m) and the matrix is
+/// `[[W + D, D], [−D, K' D²]]` (`D = diag(1/k)` on the coating rows), whose symmetric part is
+/// that of `W` plus a positive diagonal: a P-matrix whenever `W`'s symmetric part is positive
+/// semi-definite (no or mild friction), so [`active_set_solve`] finds its unique solution.
+/// `w` is row-major `n × n`, `d` the predicted gaps to the casing (m); returns the pivots, the
+/// forces in `lambda` and the plastic shortenings in `plastic` (m, 0 off the coating rows).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn coated_solve(
+    n: usize,
+    w: &[f64],
+    d: &[f64],
+    laws: &[Option<CoatingLaw>],
+    tol: f64,
+    lambda: &mut [f64],
+    plastic: &mut [f64],
+    buf: &mut CoatedBuffers,
+) -> Result<usize, ContactSolveError> {
+    let nc = laws[..n].iter().filter(|l| l.is_some()).count();
+    let nt = n + nc;
+    let (m, q) = (&mut buf.m, &mut buf.q);
+    m.clear();
+    m.resize(nt * nt, 0.0);
+    q.clear();
+    q.extend_from_slice(&d[..n]);
+    q.resize(nt, 0.0);
+    for k in 0..n {
+        m[k * nt..k * nt + n].copy_from_slice(&w[k * n..(k + 1) * n]);
+    }
+    let mut c = n;
+    for (k, law) in laws[..n].iter().enumerate() {
+        let Some(law) = law else { continue };
+        let compliance = 1.0 / law.stiffness;
+        m[k * nt + k] += compliance;
+        m[k * nt + c] = compliance;
+        q[k] -= law.remaining;
+        m[c * nt + k] = -compliance;
+        m[c * nt + c] = law.hardening * compliance * compliance;
+        q[c] = law.yield_force * compliance;
+        c += 1;
+    }
+    buf.z.resize(nt, 0.0);
+    let pivots = active_set_solve(
+        nt,
+        m,
+        q,
+        tol,
+        &mut buf.z,
+        &mut buf.active,
+        &mut buf.lu,
+        &mut buf.rhs,
+    )?;
+    lambda[..n].copy_from_slice(&buf.z[..n]);
+    let mut c = n;
+    for (k, law) in laws[..n].iter().enumerate() {
+        plastic[k] = match law {
+            Some(law) => {
+                c += 1;
+                buf.z[c - 1] / law.stiffness
+            }
+            None => 0.0,
+        };
+    }
+    Ok(pivots)
+}
+
 /// The linearised gap `d_k + Σ_l W_kl λ_l` (m).
 #[inline]
 fn gap(n: usize, w: &[f64], d: &[f64], lambda: &[f64], k: usize) -> f64 {
@@ -475,6 +566,130 @@ fn gauss_solve(n: usize, a: &mut [f64], b: &mut [f64]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A layer of one row (nominal material, 2 mm; tip area 5e-6 m²) and the law of the element
+    /// at angle 0.1 rad after a first plastic shortening `worn` (m).
+    fn coating_law(worn: f64) -> (crate::dynamics::abradable::CoatingLayer, CoatingLaw) {
+        use crate::dynamics::abradable::{CoatingLayer, CoatingMaterial};
+        let mut layer = CoatingLayer::new(CoatingMaterial::nominal(), 600, vec![5e-6]).unwrap();
+        let (el, _) = layer.law(0, 0.1).unwrap();
+        let up = layer.plastic_update(0, el, worn).unwrap();
+        layer.commit(&up).unwrap();
+        let law = layer.law(0, 0.1).unwrap().1;
+        (layer, law)
+    }
+
+    /// A tip on a spring of flexibility `w` (the static flexibility of a massless boundary)
+    /// pressed into a coating element: the predicted gap `d` is where the static load alone
+    /// puts it. Closed form of the 1D law in series with the spring, with `p₀ = e_r − d` the
+    /// predicted depth below the worn surface: elastic `λ = k p₀ / (1 + k w)` while `λ ≤ λ_Y`,
+    /// else `λ = (λ_Y + K' p₀) / (1 + K'/k + K' w)` and the wear `Δp = (λ − λ_Y) / K'`; the
+    /// tip ends `w λ` above its prediction. Open, elastic and plastic, virgin and worn.
+    #[test]
+    fn a_tip_on_a_spring_pressed_into_a_coating_element_has_the_closed_form_force_and_wear() {
+        let mut buf = CoatedBuffers::default();
+        for worn in [0.0, 3e-4] {
+            let (layer, law) = coating_law(worn);
+            let (k, ly, kh) = (law.stiffness, law.yield_force, law.hardening);
+            assert!((law.remaining - (2e-3 - worn)).abs() < 1e-15);
+            // m/N: k w = 3.5, a stiff element on a soft boundary (the explicit force needs k w < 1).
+            let w = 2e-7;
+            let p_yield = ly * (1.0 + k * w) / k;
+            // Every depth stays inside the layer (5 p_yield < e_r both times).
+            assert!(5.0 * p_yield < law.remaining);
+            for p0 in [
+                -1e-5,
+                0.5 * p_yield,
+                0.999 * p_yield,
+                1.5 * p_yield,
+                5.0 * p_yield,
+            ] {
+                let d = law.remaining - p0;
+                let (mut lambda, mut plastic) = ([0.0], [0.0]);
+                coated_solve(
+                    1,
+                    &[w],
+                    &[d],
+                    &[Some(law)],
+                    1e-14,
+                    &mut lambda,
+                    &mut plastic,
+                    &mut buf,
+                )
+                .unwrap();
+                let (l_exact, dp_exact) = if p0 <= 0.0 {
+                    (0.0, 0.0)
+                } else if p0 <= p_yield {
+                    (k * p0 / (1.0 + k * w), 0.0)
+                } else {
+                    let l = (ly + kh * p0) / (1.0 + kh / k + kh * w);
+                    (l, (l - ly) / kh)
+                };
+                let scale = ly.max(1.0);
+                assert!(
+                    (lambda[0] - l_exact).abs() <= 1e-10 * scale,
+                    "p0 {p0:e}: λ {} vs {l_exact}",
+                    lambda[0]
+                );
+                assert!(
+                    (plastic[0] - dp_exact).abs() <= 1e-12 * 2e-3,
+                    "p0 {p0:e}: Δp {} vs {dp_exact}",
+                    plastic[0]
+                );
+                // The element's own return mapping at the corrected incursion gives the same force.
+                let incursion = 2e-3 - (d + w * lambda[0]);
+                let (f, up) = layer.trial(0, 0.1, incursion).unwrap();
+                assert!(
+                    (f - lambda[0]).abs() <= 1e-9 * scale,
+                    "trial {f} vs λ {}",
+                    lambda[0]
+                );
+                let eps_p0 = worn / 2e-3;
+                assert!((up.plastic_strain - eps_p0 - plastic[0] / 2e-3).abs() <= 1e-12);
+            }
+        }
+    }
+
+    /// Two coupled tips (a symmetric flexibility with coupling), one on the coating, one against
+    /// the bare casing: the solution meets each law — the element's return mapping at the
+    /// corrected incursion, and the Lagrange complementarity — checked on the output alone.
+    #[test]
+    fn coated_and_lagrange_tips_together_meet_both_laws() {
+        let (layer, law) = coating_law(1e-4);
+        let w = [3e-7, 1e-7, 1e-7, 2e-7];
+        let mut buf = CoatedBuffers::default();
+        for (d0, d1) in [
+            (1.5e-3, -1e-5),
+            (1.0e-3, -2e-5),
+            (1.9e-3, -1e-6),
+            (1.0e-3, 5e-5),
+        ] {
+            let (mut lambda, mut plastic) = ([0.0; 2], [0.0; 2]);
+            let laws = [Some(law), None];
+            coated_solve(
+                2,
+                &w,
+                &[d0, d1],
+                &laws,
+                1e-14,
+                &mut lambda,
+                &mut plastic,
+                &mut buf,
+            )
+            .unwrap();
+            let g0 = d0 + w[0] * lambda[0] + w[1] * lambda[1];
+            let g1 = d1 + w[2] * lambda[0] + w[3] * lambda[1];
+            let (f, up) = layer.trial(0, 0.1, 2e-3 - g0).unwrap();
+            assert!(
+                (f - lambda[0]).abs() <= 1e-9 * law.yield_force,
+                "{f} vs {}",
+                lambda[0]
+            );
+            assert!((up.plastic_strain - 0.05 - plastic[0] / 2e-3).abs() <= 1e-12);
+            assert!(lambda[1] >= 0.0 && g1 >= -1e-14 && (lambda[1] == 0.0 || g1.abs() <= 1e-14));
+            assert_eq!(plastic[1], 0.0);
+        }
+    }
 
     #[test]
     fn contracted_pair_equals_the_explicit_control_point_sum() {

@@ -4,15 +4,19 @@
 //! structures, rebuild the casing surface (`casing_surface`) from the predicted casing,
 //! `project` every blade-tip node and take its gap, apply the abradable `coating` (Fig. 11),
 //! and when some gap is negative solve the contact (`contact_solve`) and `correct` both
-//! structures; then `advance` and `record` a sample for the caller's [`Recorder`].
+//! structures; then `advance` and `record` a sample for the caller's [`Recorder`]. With a
+//! massless boundary the coating's forces are not applied in `coating` but solved with the
+//! contact (`contact_solve`, see `CoatingStage`).
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
     CasingSpline, GapBounds, NodeProjectionError, Projection, SurfaceParam, closest_point,
     friction_direction, project_nodes,
 };
-use crate::dynamics::abradable::{AbradableError, CoatingLayer, ElementUpdate};
-use crate::dynamics::contact_solve::{ControlFlexTable, NodeFlexTable, active_set_solve};
+use crate::dynamics::abradable::{AbradableError, CoatingLaw, CoatingLayer, ElementUpdate};
+use crate::dynamics::contact_solve::{
+    CoatedBuffers, ControlFlexTable, NodeFlexTable, active_set_solve, coated_solve,
+};
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
 use crate::dynamics::kernel::StructureKernel;
@@ -616,8 +620,9 @@ fn set_casing_load(
     Ok(())
 }
 
-/// The abradable coating's stage of a case (Fig. 11), checked against the casing kind, the
-/// boundary model and its explicit stability; `None` without a coating.
+/// The abradable coating's stage of a case (Fig. 11), checked against the casing kind and,
+/// with the paper's formulation, the explicit stability of its force (a massless boundary
+/// solves it implicitly, box 4); `None` without a coating.
 fn coating_stage(
     case: &Case,
     impeller: &CyclicRom,
@@ -626,15 +631,18 @@ fn coating_stage(
     steps_per_revolution: f64,
 ) -> Result<Option<CoatingStage>, SimError> {
     Ok(match (&case.coating, casing.surface_mut()) {
-        (Some(_), _) if case.numerics.boundary == Boundary::Massless => {
-            return Err(SimError::InvalidCase(
-                "an abradable coating with a massless boundary is not supported yet".into(),
-            ));
-        }
         (Some(cc), Some(side)) => {
             let mut cs = CoatingStage::new(cc, impeller, blades, case.friction, side)?;
             cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;
-            cs.check_stability(blades, side.flexible.as_mut())?;
+            match case.numerics.boundary {
+                Boundary::Mass => cs.check_stability(blades, side.flexible.as_mut())?,
+                Boundary::Massless => {
+                    let nn = blades.n_blades * blades.n_contact;
+                    cs.node_law = vec![None; nn];
+                    cs.theta_now = vec![f64::NAN; nn];
+                    cs.theta_prev = vec![f64::NAN; nn];
+                }
+            }
             Some(cs)
         }
         (Some(_), None) => {
@@ -932,6 +940,12 @@ struct ContactProblem {
     /// Normal and friction force per blade (N) of the step.
     force_n: Vec<f64>,
     force_t: Vec<f64>,
+    /// With a coating on a massless boundary, the law of the element each candidate presses
+    /// (`None`: Lagrange contact with the casing), the plastic shortening of the step (m) and
+    /// the buffers of [`coated_solve`]. `laws` is empty otherwise.
+    laws: Vec<Option<CoatingLaw>>,
+    plastic: Vec<f64>,
+    coated: CoatedBuffers,
 }
 
 impl ContactProblem {
@@ -978,23 +992,44 @@ impl ContactProblem {
             touched: vec![None; nn],
             force_n: vec![0.0; blades.n_blades],
             force_t: vec![0.0; blades.n_blades],
+            laws: Vec::with_capacity(nn),
+            plastic: vec![0.0; nn],
+            coated: CoatedBuffers::default(),
         }
+    }
+
+    /// Whether candidate `k` presses a coating element (massless boundary).
+    fn on_coating(&self, k: usize) -> bool {
+        self.laws.get(k).is_some_and(Option::is_some)
     }
 
     /// The multipliers of eq. (18) for the first `nk` candidates, gaps `d` and matrix `w`,
     /// the active set iterated to the gap tolerance `tol` (m); time `time` (s) for the error.
     fn solve_multipliers(&mut self, tol: f64, time: f64) -> Result<(), SimError> {
         let nk = self.cands.len();
-        let solved = active_set_solve(
-            nk,
-            &self.w[..nk * nk],
-            &self.d[..nk],
-            tol,
-            &mut self.lambda,
-            &mut self.active,
-            &mut self.lu,
-            &mut self.rhs,
-        );
+        let solved = if self.laws.is_empty() {
+            active_set_solve(
+                nk,
+                &self.w[..nk * nk],
+                &self.d[..nk],
+                tol,
+                &mut self.lambda,
+                &mut self.active,
+                &mut self.lu,
+                &mut self.rhs,
+            )
+        } else {
+            coated_solve(
+                nk,
+                &self.w[..nk * nk],
+                &self.d[..nk],
+                &self.laws,
+                tol,
+                &mut self.lambda,
+                &mut self.plastic,
+                &mut self.coated,
+            )
+        };
         solved.map(drop).map_err(|e| SimError::Diverged {
             time,
             reason: e.to_string(),
@@ -1024,6 +1059,8 @@ pub struct Simulation<'a> {
     /// The flexible casing's critical wave speed (rad/s) and its nodal diameter
     /// ([`Structure::critical_wave_speed`]).
     casing_wave: Option<(f64, usize)>,
+    /// Whether some blade-tip node's predicted gap to the casing itself is negative.
+    rubs: bool,
     /// Probe buffers of a sample (per blade, per casing probe, per nodal diameter).
     le: Vec<f64>,
     te: Vec<f64>,
@@ -1148,6 +1185,7 @@ impl<'a> Simulation<'a> {
             r_om: Matrix3::identity(),
             sample_step: false,
             min_gap: f64::INFINITY,
+            rubs: false,
             residual: 0.0,
             drive_work: 0.0,
             casing_wave: st_c.as_ref().and_then(Structure::critical_wave_speed),
@@ -1231,7 +1269,9 @@ impl<'a> Simulation<'a> {
         self.coating()?;
         self.gaps()?;
         if !self.contact.cands.is_empty() {
-            self.summary.contact_steps += 1;
+            if self.rubs {
+                self.summary.contact_steps += 1;
+            }
             loop {
                 self.friction_directions()?;
                 self.contact_solve()?;
@@ -1241,6 +1281,7 @@ impl<'a> Simulation<'a> {
             }
             self.refine_contact()?;
             self.correct()?;
+            self.coating_forces()?;
         }
         self.advance()?;
         self.record(recorder)
@@ -1308,6 +1349,10 @@ impl<'a> Simulation<'a> {
         let (Some(cs), Casing::Surface(side)) = (self.coating.as_mut(), &mut self.casing) else {
             return Ok(());
         };
+        if cs.implicit() {
+            // A massless boundary: the elements' laws join the contact problem (box 4).
+            return cs.laws_of(self.blades.n_contact, &self.projector.proj);
+        }
         let fr = StepFrames {
             spline: &side.spline,
             q: &side.q,
@@ -1372,6 +1417,8 @@ impl<'a> Simulation<'a> {
         c.force_t.iter_mut().for_each(|x| *x = 0.0);
         self.residual = 0.0;
         self.min_gap = f64::INFINITY;
+        self.rubs = false;
+        let laws = self.coating.as_ref().map_or(&[][..], |cs| &cs.node_law[..]);
         for (node, p) in self.projector.proj.iter().enumerate() {
             if !p.gap.is_finite() {
                 return Err(SimError::Diverged {
@@ -1380,7 +1427,8 @@ impl<'a> Simulation<'a> {
                 });
             }
             self.min_gap = self.min_gap.min(p.gap);
-            if p.gap < 0.0 {
+            self.rubs |= p.gap < 0.0;
+            if p.gap < 0.0 || laws.get(node).is_some_and(Option::is_some) {
                 c.cands.push(Cand::at(node, self.blades.n_contact, p));
             }
         }
@@ -1491,7 +1539,30 @@ impl<'a> Simulation<'a> {
         {
             casing_w(f, &cs.spline, c, nk)?;
         }
-        c.solve_multipliers(self.casing.gap_tolerance(), self.t1)?;
+        let tol = self.casing.gap_tolerance();
+        c.laws.clear();
+        if let Some(coating) = self.coating.as_mut().filter(|cs| cs.implicit()) {
+            let laws = c
+                .cands
+                .iter()
+                .map(|cd| coating.node_law[cd.node].map(|l| l.2));
+            c.laws.extend(laws);
+            // A tip that the solve takes through its element to the casing has worn it
+            // through: the element is removed and the tip is a Lagrange contact (as a tip
+            // predicted through it is, `CoatingStage::laws_of`), until none is left.
+            loop {
+                c.solve_multipliers(tol, self.t1)?;
+                let through = (0..nk).filter(|&k| c.laws[k].is_some()).find(|&k| {
+                    let wl: f64 = (0..nk).map(|l| c.w[k * nk + l] * c.lambda[l]).sum();
+                    c.d[k] + wl < -tol
+                });
+                let Some(k) = through else { break };
+                c.laws[k] = None;
+                coating.wear_through(c.cands[k].node)?;
+            }
+        } else {
+            c.solve_multipliers(tol, self.t1)?;
+        }
         self.clock.lap(Stage::ContactSolve);
         Ok(())
     }
@@ -1519,7 +1590,14 @@ impl<'a> Simulation<'a> {
             let at = (self.t1, tol);
             corrected_gaps(&self.blades, cs, &self.r_om, c, &mut self.projector, at)?;
             let settled = (0..nk).all(|k| {
-                let g = c.d[k];
+                // On a coating element the condition is on its compression (`coated_solve`).
+                let g = match c.laws.get(k).copied().flatten() {
+                    Some(law) => {
+                        c.d[k] - law.remaining
+                            + (c.lambda[k] + c.plastic[k] * law.stiffness) / law.stiffness
+                    }
+                    None => c.d[k],
+                };
                 if c.lambda[k] > 0.0 {
                     g.abs() <= tol
                 } else {
@@ -1527,7 +1605,8 @@ impl<'a> Simulation<'a> {
                 }
             });
             if settled || iteration == GAP_NEWTON_ITERATIONS {
-                // What is left penetrating after the last correction: this step's residual.
+                // What is left penetrating the casing after the last correction: this step's
+                // residual.
                 let left = (0..nk).map(|k| -c.d[k]).fold(0.0, f64::max);
                 self.residual = self.residual.max(left);
                 break;
@@ -1552,10 +1631,14 @@ impl<'a> Simulation<'a> {
         let b_nodes = &self.blades.nodes;
         let mut torque = 0.0;
         c.fi.iter_mut().for_each(|x| *x = 0.0);
-        if c.lambda[..c.cands.len()].iter().any(|&l| l != 0.0) {
+        let lagrange = |k: &usize| !c.on_coating(*k);
+        if (0..c.cands.len())
+            .filter(lagrange)
+            .any(|k| c.lambda[k] != 0.0)
+        {
             self.summary.closed_contact_steps += 1;
         }
-        for (cd, &l) in c.cands.iter().zip(&c.lambda) {
+        for (k, (cd, &l)) in c.cands.iter().zip(&c.lambda).enumerate() {
             if l == 0.0 {
                 continue;
             }
@@ -1563,8 +1646,13 @@ impl<'a> Simulation<'a> {
                 .iter_mut()
                 .zip(cd.f_loc.iter())
                 .for_each(|(x, f)| *x += l * f);
-            c.force_n[cd.blade] += l;
+            // The rotation works through coating forces too.
             torque += b_nodes[cd.node].cross(&(l * cd.fdir)).z;
+            if c.on_coating(k) {
+                // A coating force: `coating_forces` records it.
+                continue;
+            }
+            c.force_n[cd.blade] += l;
             self.summary.active_contacts += 1;
             if cd.slip {
                 c.force_t[cd.blade] += mu * l;
@@ -1585,6 +1673,23 @@ impl<'a> Simulation<'a> {
             self.residual_penetration()?;
         }
         self.clock.lap(Stage::Correction);
+        Ok(())
+    }
+
+    /// With a coating on a massless boundary: the coating forces and plastic shortenings the
+    /// contact solve found (box 4), into the coating's forces per blade and its pending
+    /// element states.
+    fn coating_forces(&mut self) -> Result<(), SimError> {
+        let (Some(cs), c) = (self.coating.as_mut(), &self.contact) else {
+            return Ok(());
+        };
+        for (k, cd) in c.cands.iter().enumerate() {
+            if c.on_coating(k) {
+                // `refine_contact` leaves the gaps after the correction in `d`.
+                cs.implicit_force(cd.node, cd.blade, (c.lambda[k], c.plastic[k], c.d[k]))?;
+            }
+        }
+        cs.finish_step();
         Ok(())
     }
 
@@ -2279,6 +2384,15 @@ struct StepFrames<'a> {
 ///    removal too ([`CoatingStage::flag_penetrations`]).
 /// 3. [`CoatingStage::commit`] at the end of the step commits the trial element states and the
 ///    removals (plastic strain never decreases, so the order does not matter).
+///
+/// With a massless boundary a tip node has no mass and steps 1–2 would not be stable (`k w`
+/// is not small, [`CoatingStage::check_stability`]): [`CoatingStage::laws_of`] replaces them.
+/// A node with `d* ≤ 0` is handled as in step 1; every node below the worn surface becomes a
+/// candidate of the contact problem with its element's law, and box 4 solves its force and
+/// plastic shortening with the Lagrange multipliers ([`coated_solve`]); a node the solve takes
+/// to the casing is removed and solved again as a Lagrange contact
+/// ([`CoatingStage::wear_through`]). [`CoatingStage::implicit_force`] then keeps the solved
+/// states, and step 3 commits them.
 struct CoatingStage {
     layer: CoatingLayer,
     /// Impeller contact node index j → coating row.
@@ -2299,6 +2413,14 @@ struct CoatingStage {
     max_wear_row: Vec<f64>,
     removed_row: Vec<usize>,
     out: CoatingOutput,
+    /// With a massless boundary, per blade-tip node the row, element and law of the element
+    /// it presses this step ([`CoatingStage::laws_of`]); empty with the paper's formulation.
+    node_law: Vec<Option<(usize, usize, CoatingLaw)>>,
+    /// With a massless boundary, per blade-tip node the fixed-frame angle (rad) of its closest
+    /// point in this step and in the previous one, NaN when it was not within `e_abr` of the
+    /// casing: a step may move a tip over more than an element (`CoatingStage::cut_swept`).
+    theta_now: Vec<f64>,
+    theta_prev: Vec<f64>,
 }
 
 impl CoatingStage {
@@ -2346,7 +2468,112 @@ impl CoatingStage {
                 thickness: cc.material.thickness,
                 ..Default::default()
             },
+            node_law: Vec::new(),
+            theta_now: Vec::new(),
+            theta_prev: Vec::new(),
         })
+    }
+
+    /// Whether the coating force is solved with the displacement (massless boundary).
+    fn implicit(&self) -> bool {
+        !self.node_law.is_empty()
+    }
+
+    /// Step 1 with a massless boundary: a node with `d* ≤ 0` reached the casing: its element is
+    /// marked for removal and the node is a Lagrange contact (as in step 1 of the paper's
+    /// formulation). Every other node below the worn surface (`d* < e_abr (1 − ε_p)`) gets
+    /// the law of its element, which box 4 solves with the boundary's static response.
+    fn laws_of(&mut self, nci: usize, proj: &[Projection]) -> Result<(), SimError> {
+        self.pending.clear();
+        self.removals.clear();
+        self.blade_force.iter_mut().for_each(|x| *x = 0.0);
+        let e_abr = self.layer.material().thickness;
+        std::mem::swap(&mut self.theta_prev, &mut self.theta_now);
+        for (node, p) in proj.iter().enumerate() {
+            self.node_law[node] = None;
+            self.theta_now[node] = f64::NAN;
+            if p.gap >= e_abr {
+                continue;
+            }
+            let row = self.row_of[node % nci];
+            let theta = p.point.y.atan2(p.point.x);
+            self.theta_now[node] = theta;
+            let (element, law) = self.layer.law(row, theta)?;
+            if p.gap <= 0.0 {
+                self.removals.push((row, element));
+                self.cut_swept(node, row, p.gap)?;
+            } else if p.gap < law.remaining {
+                self.node_law[node] = Some((row, element, law));
+            } else {
+                // Above its element's worn surface, maybe not above the ones jumped over.
+                self.cut_swept(node, row, p.gap)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The elements that tip `node` (row `row`) jumped over in the step, between its element
+    /// of the previous step and this one, are cut as the tip's own element is, at the tip's
+    /// gap to the casing at the end of the step `gap` (m): removed when it is ≤ 0. (The paper's
+    /// steps move a tip by less than an element; a massless boundary's may not.)
+    fn cut_swept(&mut self, node: usize, row: usize, gap: f64) -> Result<(), SimError> {
+        let (from, to) = (self.theta_prev[node], self.theta_now[node]);
+        if from.is_nan() || to.is_nan() {
+            return Ok(());
+        }
+        let e_abr = self.layer.material().thickness;
+        for theta in self.layer.centres_between(from, to)? {
+            if gap <= 0.0 {
+                let element = self.layer.element_index(theta)?;
+                self.removals.push((row, element));
+                continue;
+            }
+            let (f, up) = self.layer.trial(row, theta, e_abr - gap)?;
+            if f > 0.0 {
+                self.pending.push(up);
+            }
+        }
+        Ok(())
+    }
+
+    /// The contact solve took `node` through its element to the casing: the element, and any
+    /// jumped over, are removed.
+    fn wear_through(&mut self, node: usize) -> Result<(), SimError> {
+        if let Some((row, element, _)) = self.node_law[node].take() {
+            self.removals.push((row, element));
+            self.cut_swept(node, row, 0.0)?;
+        }
+        Ok(())
+    }
+
+    /// The solved force `lambda` (N) of `node` (on blade `blade`) on its element, the
+    /// element's plastic shortening `plastic` (m) in the step, and the tip's gap to the casing
+    /// at the end of the step `gap` (m), at which the elements it jumped over are cut.
+    fn implicit_force(
+        &mut self,
+        node: usize,
+        blade: usize,
+        (lambda, plastic, gap): (f64, f64, f64),
+    ) -> Result<(), SimError> {
+        let Some((row, element, _)) = self.node_law[node] else {
+            return Ok(());
+        };
+        if plastic > 0.0 {
+            let up = self.layer.plastic_update(row, element, plastic)?;
+            self.pending.push(up);
+        }
+        self.cut_swept(node, row, gap)?;
+        self.blade_force[blade] += lambda;
+        Ok(())
+    }
+
+    /// The step's coating statistics, once its forces are known.
+    fn finish_step(&mut self) {
+        if self.blade_force.iter().any(|&f| f > 0.0) {
+            self.out.coating_steps += 1;
+            let peak = self.blade_force.iter().fold(0.0f64, |m, &x| m.max(x));
+            self.out.peak_force = self.out.peak_force.max(peak);
+        }
     }
 
     /// Elastic stiffness `E A_r / e_abr` (N/m) of the elements of row `r`.
@@ -2663,7 +2890,8 @@ impl CoatingStage {
                 return Err(SimError::InvalidCase(format!(
                     "coating too stiff for the time step: row {} has E·A/e_abr = {k:.3e} N/m and \
                      contact flexibility {:.3e} m/N, k·w = {ratio:.3} ≥ 1; reduce numerics.time_step \
-                     (k·w ∝ h²) or the tip area",
+                     (k·w ∝ h²) or the tip area, or set numerics.boundary \"massless\" (the coating \
+                     force is then solved with the displacement)",
                     self.row_of[j],
                     wi + w_c
                 )));
@@ -2676,6 +2904,7 @@ impl CoatingStage {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::abradable::CoatingMaterial;
     use crate::dynamics::numerics::Numerics;
     use crate::dynamics::scenario::{InitialVelocity, LobeLoad, RigidShape, RigidSurface};
     use crate::fixtures::{SyntheticSpec, synthetic_rom};
@@ -3074,6 +3303,149 @@ mod tests {
                 w[1]
             );
         }
+    }
+
+    /// [`spring_mass_rom`] with a massless boundary thrown outward at `v₀` into an abradable
+    /// coating (nominal material, tip area 1e-6 m²) on a rigid cylinder, the tip `g₀` below
+    /// the unworn surface at rest. The element is stiffer than the boundary is flexible
+    /// (`k w = 1.17` with `w = 1/k_c + 1/k₀`: the explicit coating force would not be stable), so
+    /// its force is solved with the boundary's static response. At the end of every step the
+    /// recorded force λ, the tip's depth below the unworn surface `p = u − g₀` and the wear
+    /// `Δ` meet the element's law: `λ = k (p − Δ)` when it pushes, never above the hardened
+    /// yield force `λ_Y + K' Δ` and on it whenever the wear grew; no force off the worn
+    /// surface.
+    #[test]
+    fn massless_boundary_tip_thrown_into_a_coating_meets_the_element_law_every_step() {
+        let mat = CoatingMaterial::nominal();
+        let (out, [g0, area, k0, kc]) = thrown_into_coating(mat);
+        let e = mat.thickness;
+        let (k, kh) = (mat.young * area / e, mat.plastic_modulus * area / e);
+        let yield0 = mat.yield_stress * area;
+        assert!(k * (1.0 / kc + 1.0 / k0) > 1.0);
+        let (force, wear) = (&out.coating_blade_force[0], &out.coating_max_wear[0]);
+        // The solve closes the element's law to the gap tolerance (2e-13 m at r₀).
+        let tol = k * 1e-12 + 1e-9 * yield0;
+        let (mut plastic_steps, mut elastic_steps) = (0, 0);
+        for n in 1..out.time.len() {
+            let (l, p, wn) = (force[n], out.blade_le_radial[0][n] - g0, wear[n]);
+            let limit = yield0 + kh * wn;
+            assert!(
+                l <= limit + tol,
+                "step {n}: λ {l} above the yield force {limit}"
+            );
+            if l > 0.0 {
+                let elastic = k * (p - wn);
+                assert!(
+                    (l - elastic).abs() <= tol,
+                    "step {n}: λ {l} vs k (p − Δ) {elastic}"
+                );
+                if wn > wear[n - 1] {
+                    assert!(
+                        (l - limit).abs() <= tol,
+                        "step {n}: wear grew off the yield force"
+                    );
+                    plastic_steps += 1;
+                } else {
+                    elastic_steps += 1;
+                }
+            } else {
+                assert!(
+                    p <= wn + 1e-12,
+                    "step {n}: tip {p:e} below the worn surface {wn:e}"
+                );
+            }
+        }
+        eprintln!(
+            "{plastic_steps} plastic and {elastic_steps} elastic coating steps, final wear {:.4e} m",
+            wear.last().unwrap()
+        );
+        assert!(plastic_steps > 10 && elastic_steps > 10);
+        assert!(*wear.last().unwrap() > 10.0 * yield0 / k);
+        assert_eq!(
+            out.summary.contact_steps, 0,
+            "the tip never reaches the casing"
+        );
+    }
+
+    /// The run of [`massless_boundary_tip_thrown_into_a_coating_meets_the_element_law_every_step`]
+    /// with coating `mat`, and its `[g₀, tip area, k₀, k_c]`.
+    fn thrown_into_coating(mat: CoatingMaterial) -> (SimulationOutput, [f64; 4]) {
+        let (m, k0, kc, r0, g0, area) = (0.1, 4e6, 1.2e7, 0.2, 1e-4, 1e-6);
+        let e = mat.thickness;
+        let rom = spring_mass_rom(m, k0, kc, r0);
+        let casing = CasingModel::Rigid(RigidSurface {
+            n_sectors: 64,
+            meridian: vec![[r0 + g0 + e, -0.01], [r0 + g0 + e, 0.01]],
+            shape: RigidShape::Lobes {
+                lobes: 0,
+                amplitude: 0.0,
+            },
+        });
+        let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
+        let v0 = 3.0 * g0 * w0;
+        let case = Case {
+            omega: 0.0,
+            duration: 2.0 * 2.0 * PI / w0,
+            friction: 0.0,
+            load: None,
+            clearance_offset: vec![],
+            casing_probes: vec![],
+            probes: vec![],
+            initial_velocity: InitialVelocity {
+                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: Some(0.02 / w1),
+                decimation: 1,
+                newton_tolerance: 1e-12,
+                boundary: Boundary::Massless,
+                ..Default::default()
+            },
+            coating: Some(CoatingCase {
+                eta: 600,
+                tip_area: vec![area],
+                ..CoatingCase::new(mat)
+            }),
+        };
+        let out = simulate(&case, &rom, &casing, None).unwrap();
+        (out, [g0, area, k0, kc])
+    }
+
+    /// The same tip into a coating too thin to stop it (50 µm): the element is worn through,
+    /// removed, and the tip is then a Lagrange contact with the casing, which it never
+    /// penetrates.
+    #[test]
+    fn massless_boundary_tip_wearing_through_a_coating_switches_to_lagrange_contact() {
+        let mat = CoatingMaterial {
+            thickness: 5e-5,
+            ..CoatingMaterial::nominal()
+        };
+        let (out, [g0, ..]) = thrown_into_coating(mat);
+        let casing_at = g0 + mat.thickness;
+        let co = out.summary.coating.as_ref().unwrap();
+        eprintln!(
+            "contact steps {}, coating steps {}, removed {:?}, residual {:.2e} m",
+            out.summary.contact_steps,
+            co.coating_steps,
+            co.removed_elements,
+            out.summary.max_residual_penetration
+        );
+        assert!(co.coating_steps > 0 && out.summary.contact_steps > 0);
+        assert_eq!(co.removed_elements, vec![1]);
+        assert_eq!(co.max_wear_final, mat.thickness);
+        for (t, u) in out.time.iter().zip(&out.blade_le_radial[0]) {
+            assert!(
+                *u <= casing_at + 1e-12,
+                "t = {t}: tip {u:e} beyond the casing"
+            );
+        }
+        assert!(
+            out.blade_le_radial[0]
+                .iter()
+                .any(|u| (u - casing_at).abs() < 1e-12)
+        );
+        assert!(out.summary.max_residual_penetration <= 1e-12 * casing_at);
     }
 
     /// A one-node blade (mass m, stiffness k in every direction) at rest, sweeping past one

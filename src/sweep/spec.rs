@@ -729,14 +729,6 @@ impl SweepSpec {
                  every retained mode carries its mass",
             );
         }
-        if self.numerics.boundary == Boundary::Massless && sc.coating.is_some() {
-            reject(
-                "/numerics/boundary",
-                "a massless boundary with an abradable coating is not supported yet: the \
-                 coating's forces would need an implicit solve on the static boundary \
-                 flexibility (use \"mass\", the default)",
-            );
-        }
         if self.models.casing.is_rigid() {
             let flexible_only = "applies to a flexible casing only; a rigid casing";
             if sc.lobes.is_some() {
@@ -1259,17 +1251,11 @@ mod tests {
     }
 
     #[test]
-    fn a_coating_with_a_massless_boundary_is_rejected() {
+    fn a_coating_with_a_massless_boundary_is_accepted() {
         let mut v = base();
         v["numerics"]["boundary"] = serde_json::json!("massless");
-        assert!(spec_from_value(v.clone()).is_ok());
         v["scenario"]["coating"] = serde_json::json!({});
-        let i = issues_of(v);
-        assert!(
-            i.iter().any(|s| s
-                .starts_with("/numerics/boundary: a massless boundary with an abradable coating")),
-            "{i:?}"
-        );
+        assert!(spec_from_value(v).is_ok());
     }
 
     #[test]
