@@ -277,6 +277,21 @@ fn small_with(dir: &Path, tag: &str, f: impl FnOnce(&mut serde_json::Value)) -> 
     path
 }
 
+/// `rubscan run <spec> -o <out>`: its exit status and stderr.
+fn run_to(spec: &Path, out: &Path) -> (Option<i32>, String) {
+    let st = rubscan()
+        .arg("run")
+        .arg(spec)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap();
+    (
+        st.status.code(),
+        String::from_utf8_lossy(&st.stderr).into_owned(),
+    )
+}
+
 /// Each invalid spec is refused by `plan` and `run` with exit status 1 within 5 s, its
 /// stderr names the JSON path or field and the reason, and no output directory appears.
 #[test]
@@ -456,15 +471,8 @@ fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
         v["grid"]["friction"] = serde_json::json!([0.1]);
         v["grid"]["coating"] = serde_json::json!({"young": {"scale": [1.0]}});
     });
-    let st = rubscan()
-        .arg("run")
-        .arg(&spec)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&st.stderr);
-    assert_eq!(st.status.code(), Some(0), "{err}");
+    let (code, err) = run_to(&spec, &out);
+    assert_eq!(code, Some(0), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -637,15 +645,8 @@ fn jobs_past_the_wall_time_limit_fail_with_the_reason() {
     assert_eq!(manifest["all_ok"], false);
     assert_eq!(manifest["failed"], 1);
     // A resume runs nothing and still reports the failure.
-    let st = rubscan()
-        .arg("run")
-        .arg(&spec)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&st.stderr);
-    assert_eq!(st.status.code(), Some(2), "{err}");
+    let (code, err) = run_to(&spec, &out);
+    assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("1 of 1 finished jobs failed"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -664,15 +665,8 @@ fn run_notes_the_jobs_above_the_casing_critical_wave_speed() {
             v["grid"]["friction"] = serde_json::json!([0.0]);
         });
         let out = dir.join(format!("out{}", speeds.len()));
-        let st = rubscan()
-            .arg("run")
-            .arg(&spec)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&st.stderr);
-        assert_eq!(st.status.code(), Some(0), "{err}");
+        let (code, err) = run_to(&spec, &out);
+        assert_eq!(code, Some(0), "{err}");
         let said = err.contains("1 of 2 jobs run above the flexible casing's critical wave speed");
         assert_eq!(said, note, "{err}");
         assert_eq!(err.contains("critical wave speed"), note, "{err}");
