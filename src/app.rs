@@ -435,20 +435,8 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     let mut sim = ModelSimulator::from_resolved(resolved)?;
     let jobs = plan(&spec)?.jobs;
     sim.check_coating_limits(&jobs)?;
-    if let Some((omega_c, k)) = sim.casing_wave_speed()? {
-        let above = jobs
-            .iter()
-            .filter(|j| j.params.speed_rad_s > omega_c)
-            .count();
-        if above > 0 {
-            eprintln!(
-                "[sweep] note: {above} of {} jobs run above the flexible casing's critical wave \
-                 speed {omega_c:.1} rad/s (nodal diameter {k}), where a contact that stays closed \
-                 can feed the casing's backward waves with the rotation's energy: their response \
-                 may grow until the contact solve gives up (docs/validation.md)",
-                jobs.len()
-            );
-        }
+    if let Some(note) = sim.supercritical_note(&jobs)? {
+        eprintln!("[sweep] note: {note}");
     }
     if args.timeseries {
         sim = sim.with_timeseries(opts.output_dir.join("timeseries"));

@@ -310,6 +310,26 @@ impl ModelSimulator {
         Ok(Structure::new(rom, 0.0)?.critical_wave_speed())
     }
 
+    /// How many of `jobs` run above the flexible casing's critical wave speed, as a sentence
+    /// for the user; `None` when none does (or the casing is rigid).
+    pub fn supercritical_note(&self, jobs: &[Job]) -> Result<Option<String>> {
+        let Some((omega_c, k)) = self.casing_wave_speed()? else {
+            return Ok(None);
+        };
+        let above = (jobs.iter())
+            .filter(|j| j.params.speed_rad_s > omega_c)
+            .count();
+        Ok((above > 0).then(|| {
+            format!(
+                "{above} of {} jobs run above the flexible casing's critical wave speed \
+                 {omega_c:.1} rad/s (nodal diameter {k}), where a contact that stays closed can \
+                 feed the casing's backward waves with the rotation's energy: their response may \
+                 grow until the contact solve gives up (docs/validation.md)",
+                jobs.len()
+            )
+        }))
+    }
+
     /// The impeller ROM of the sweep.
     pub fn impeller(&self) -> &CyclicRom {
         &self.impeller
