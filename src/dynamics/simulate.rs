@@ -3125,20 +3125,51 @@ mod tests {
         }
     }
 
+    /// A rigid cylinder of radius `r` (m) about the z axis, 64 sectors.
+    fn rigid_cylinder(r: f64) -> CasingModel {
+        CasingModel::Rigid(RigidSurface {
+            n_sectors: 64,
+            meridian: vec![[r, -0.01], [r, 0.01]],
+            shape: RigidShape::Lobes {
+                lobes: 0,
+                amplitude: 0.0,
+            },
+        })
+    }
+
+    /// The tip of [`spring_mass_rom`] on a massless boundary, thrown outward at `v0` (m/s) from
+    /// rest position, at rest otherwise: `duration` (s) at step `h` (s), with `coating`.
+    fn thrown_tip_case(v0: f64, duration: f64, h: f64, coating: Option<CoatingCase>) -> Case {
+        Case {
+            omega: 0.0,
+            duration,
+            friction: 0.0,
+            load: None,
+            clearance_offset: vec![],
+            casing_probes: vec![],
+            probes: vec![],
+            initial_velocity: InitialVelocity {
+                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
+                casing: None,
+            },
+            numerics: Numerics {
+                time_step: Some(h),
+                decimation: 1,
+                newton_tolerance: 1e-12,
+                boundary: Boundary::Massless,
+                ..Default::default()
+            },
+            coating,
+        }
+    }
+
     #[test]
     fn single_oscillator_impacting_a_rigid_cylinder_matches_the_analytic_solution() {
         let (m, k) = (0.1, 4e6);
         let r0 = 0.2;
         let g0 = 1e-4;
         let rom = oscillator_rom(m, k, r0);
-        let casing = CasingModel::Rigid(RigidSurface {
-            n_sectors: 64,
-            meridian: vec![[r0 + g0, -0.01], [r0 + g0, 0.01]],
-            shape: RigidShape::Lobes {
-                lobes: 0,
-                amplitude: 0.0,
-            },
-        });
+        let casing = rigid_cylinder(r0 + g0);
         let w = (k / m).sqrt();
         let h = 1e-3 / w;
         let v0 = 2.0 * g0 * w;
@@ -3224,41 +3255,14 @@ mod tests {
     fn massless_boundary_oscillator_against_a_rigid_wall_matches_the_analytic_solution() {
         let (m, k0, kc, r0, g0) = (0.1, 4e6, 1.2e7, 0.2, 1e-4);
         let rom = spring_mass_rom(m, k0, kc, r0);
-        let casing = CasingModel::Rigid(RigidSurface {
-            n_sectors: 64,
-            meridian: vec![[r0 + g0, -0.01], [r0 + g0, 0.01]],
-            shape: RigidShape::Lobes {
-                lobes: 0,
-                amplitude: 0.0,
-            },
-        });
+        let casing = rigid_cylinder(r0 + g0);
         let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
         let v0 = 2.0 * g0 * w0;
         let st = Structure::new(&rom, 0.0).unwrap();
         let massless = st.clone().with_boundary(Boundary::Massless);
         let h = 0.02 / w1;
         assert!(h > 20.0 * st.stability_limit() && h < 0.01 * massless.stability_limit());
-        let case = Case {
-            omega: 0.0,
-            duration: 2.0 * 2.0 * PI / w0,
-            friction: 0.0,
-            load: None,
-            clearance_offset: vec![],
-            casing_probes: vec![],
-            probes: vec![],
-            initial_velocity: InitialVelocity {
-                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
-                casing: None,
-            },
-            numerics: Numerics {
-                time_step: Some(h),
-                decimation: 1,
-                newton_tolerance: 1e-12,
-                boundary: Boundary::Massless,
-                ..Default::default()
-            },
-            coating: None,
-        };
+        let case = thrown_tip_case(v0, 2.0 * 2.0 * PI / w0, h, None);
         let out = simulate(&case, &rom, &casing, None).unwrap();
         // Phase times: reach the wall at t₁, leave it 2 atan2(b, a)/ω₁ later; then free flight
         // from phase π − ω₀t₁ to 2π (back at 0 with +v₀): the period.
@@ -3373,41 +3377,15 @@ mod tests {
         let (m, k0, kc, r0, g0, area) = (0.1, 4e6, 1.2e7, 0.2, 1e-4, 1e-6);
         let e = mat.thickness;
         let rom = spring_mass_rom(m, k0, kc, r0);
-        let casing = CasingModel::Rigid(RigidSurface {
-            n_sectors: 64,
-            meridian: vec![[r0 + g0 + e, -0.01], [r0 + g0 + e, 0.01]],
-            shape: RigidShape::Lobes {
-                lobes: 0,
-                amplitude: 0.0,
-            },
-        });
+        let casing = rigid_cylinder(r0 + g0 + e);
         let (w0, w1) = ((k0 / m).sqrt(), ((k0 + kc) / m).sqrt());
         let v0 = 3.0 * g0 * w0;
-        let case = Case {
-            omega: 0.0,
-            duration: 2.0 * 2.0 * PI / w0,
-            friction: 0.0,
-            load: None,
-            clearance_offset: vec![],
-            casing_probes: vec![],
-            probes: vec![],
-            initial_velocity: InitialVelocity {
-                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
-                casing: None,
-            },
-            numerics: Numerics {
-                time_step: Some(0.02 / w1),
-                decimation: 1,
-                newton_tolerance: 1e-12,
-                boundary: Boundary::Massless,
-                ..Default::default()
-            },
-            coating: Some(CoatingCase {
-                eta: 600,
-                tip_area: vec![area],
-                ..CoatingCase::new(mat)
-            }),
+        let coating = CoatingCase {
+            eta: 600,
+            tip_area: vec![area],
+            ..CoatingCase::new(mat)
         };
+        let case = thrown_tip_case(v0, 2.0 * 2.0 * PI / w0, 0.02 / w1, Some(coating));
         let out = simulate(&case, &rom, &casing, None).unwrap();
         (out, [g0, area, k0, kc])
     }

@@ -62,6 +62,29 @@ pub struct JobParams {
     pub coating: CoatingParams,
 }
 
+/// Human-readable description of a job's non-speed parameters (the slice key of an
+/// interaction map), e.g. `μ = 0.15, E ×0.1, e_abr = 0.00015 m`.
+pub(crate) fn slice_label(p: &JobParams) -> String {
+    let mut parts = vec![format!("μ = {}", p.friction)];
+    if let Some(c) = p.clearance_m {
+        parts.push(format!("clearance = {c} m"));
+    }
+    let c = &p.coating;
+    for (name, unit, v) in [
+        ("E", "Pa", c.young),
+        ("K", "Pa", c.hardening),
+        ("σ_Y", "Pa", c.yield_stress),
+        ("e_abr", "m", c.thickness),
+    ] {
+        match v {
+            Some(CoatingValue::Absolute(x)) => parts.push(format!("{name} = {x} {unit}")),
+            Some(CoatingValue::Scale(f)) => parts.push(format!("{name} ×{f}")),
+            None => {}
+        }
+    }
+    parts.join(", ")
+}
+
 /// What is common to every job of a sweep: models, scenario and numerics as given
 /// in the spec (ROM paths resolved by [`SweepSpec::resolve_paths`] if the spec was loaded from a file).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -19,6 +19,7 @@ use crate::io::atomic::write_atomic;
 use crate::sweep::CriticalSpeed;
 use crate::sweep::checkpoint::JobRecord;
 use crate::sweep::labels::{LabelBox, LabelRequest, place_labels};
+use crate::sweep::planner::slice_label;
 
 static FONT: &[u8] = include_bytes!("assets/DejaVuSans.ttf");
 
@@ -1036,30 +1037,6 @@ pub fn wear_data_from_records<'a>(records: impl IntoIterator<Item = &'a JobRecor
         })
         .collect();
     WearMapData { rows }
-}
-
-/// Human-readable description of a job's non-speed parameters (the slice key of an
-/// interaction map), e.g. `μ = 0.15, E ×0.1, e_abr = 0.00015 m`.
-pub(crate) fn slice_label(p: &crate::sweep::JobParams) -> String {
-    use crate::sweep::CoatingValue;
-    let mut parts = vec![format!("μ = {}", p.friction)];
-    if let Some(c) = p.clearance_m {
-        parts.push(format!("clearance = {c} m"));
-    }
-    let c = &p.coating;
-    for (name, unit, v) in [
-        ("E", "Pa", c.young),
-        ("K", "Pa", c.hardening),
-        ("σ_Y", "Pa", c.yield_stress),
-        ("e_abr", "m", c.thickness),
-    ] {
-        match v {
-            Some(CoatingValue::Absolute(x)) => parts.push(format!("{name} = {x} {unit}")),
-            Some(CoatingValue::Scale(f)) => parts.push(format!("{name} ×{f}")),
-            None => {}
-        }
-    }
-    parts.join(", ")
 }
 
 /// Writes the standard plots of a sweep output into `dir`: one interaction map per slice

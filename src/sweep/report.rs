@@ -19,9 +19,10 @@ use crate::io::timeseries::read_columns;
 use crate::sweep::figures::{
     JobHistory, NdEnergyData, TimeHistoryData, nd_energy_bars, time_histories,
 };
+use crate::sweep::planner::slice_label;
 use crate::sweep::plots::{
     CampbellData, CasingMode, ImpellerBranch, ModeLine, PlotError, PlotLabels, SpectrumColumn,
-    campbell_diagram, deepest_wear, interaction_data_from_records, interaction_map, slice_label,
+    campbell_diagram, deepest_wear, interaction_data_from_records, interaction_map,
 };
 use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::spec::CasingSource;

@@ -20,7 +20,7 @@ use crate::dynamics::{
 use crate::io::timeseries::TimeSeriesWriter;
 use crate::model::rom::CyclicRom;
 use crate::sweep::aggregate::JobAggregator;
-use crate::sweep::planner::{CoatingParams, CoatingValue, Job};
+use crate::sweep::planner::{CoatingParams, CoatingValue, Job, slice_label};
 use crate::sweep::schema::SpecError;
 use crate::sweep::spec::{Scenario, SweepSpec};
 use crate::sweep::validate::{self, ResolvedCasing, ResolvedSweep};
@@ -56,26 +56,6 @@ fn job_coating(extras: &Scenario, params: &CoatingParams) -> Option<CoatingCase>
         eta: n.eta,
         ..CoatingCase::new(material)
     })
-}
-
-/// A job's grid point for an error message: speed, friction and the coating values it sets.
-fn describe(job: &Job) -> String {
-    let p = &job.params;
-    let mut s = format!("Ω = {} rad/s, μ = {}", p.speed_rad_s, p.friction);
-    let c = &p.coating;
-    for (name, value) in [
-        ("young", c.young),
-        ("hardening", c.hardening),
-        ("yield_stress", c.yield_stress),
-        ("thickness", c.thickness),
-    ] {
-        match value {
-            Some(CoatingValue::Scale(x)) => s += &format!(", coating {name} ×{x}"),
-            Some(CoatingValue::Absolute(x)) => s += &format!(", coating {name} {x}"),
-            None => {}
-        }
-    }
-    s
 }
 
 /// Default tip clearance (m) of a rigid casing when the grid gives none.
@@ -371,7 +351,12 @@ impl ModelSimulator {
                 };
                 return Err(SpecError::one(
                     path,
-                    format!("job {} ({}) cannot start: {e}", job.index, describe(job)),
+                    format!(
+                        "job {} (Ω = {} rad/s, {}) cannot start: {e}",
+                        job.index,
+                        job.params.speed_rad_s,
+                        slice_label(&job.params)
+                    ),
                 ));
             }
         }
