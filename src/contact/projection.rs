@@ -205,7 +205,7 @@ pub fn closest_point(
         let new_gv = (gv + dv).clamp(0.0, v_max);
         let dv = new_gv - gv;
         last_step = du.abs().max(dv.abs());
-        gu = (gu + du).rem_euclid(n);
+        gu = wrap(gu + du, n);
         gv = new_gv;
         if last_step <= eps_nr {
             // Converged. The final point and tangents come from the second-order Taylor
@@ -470,7 +470,7 @@ impl GapBounds {
         let (du, dv) = self.step_guess(node, x, consecutive);
         to_param(
             spline,
-            (p.i as f64 + p.u + du).rem_euclid(n),
+            wrap(p.i as f64 + p.u + du, n),
             p.j as f64 + p.v + dv,
         )
     }
@@ -497,7 +497,7 @@ impl GapBounds {
         let p = out[node].param;
         self.trend[node] = start.filter(|_| consecutive).map(|(gu, gv)| {
             // The shorter way round the closed direction.
-            let du = (p.i as f64 + p.u - gu).rem_euclid(n);
+            let du = wrap(p.i as f64 + p.u - gu, n);
             let du = if du > 0.5 * n { du - n } else { du };
             (du, p.j as f64 + p.v - gv)
         });
@@ -570,11 +570,28 @@ fn data_point(spline: &CasingSpline, q: &[Vector3<f64>], i: usize, j: usize) -> 
     p / 36.0
 }
 
+/// `x.rem_euclid(n)`, bit for bit, without its `fmod` call where `x ∈ (−n, 2n)` (a Newton
+/// update or a step's sweep crosses the closing line at most once): there `x`, `x + n` and
+/// `x − n` are exact.
+#[inline]
+fn wrap(x: f64, n: f64) -> f64 {
+    if (0.0..n).contains(&x) {
+        x
+    } else if x > -n && x < 0.0 {
+        x + n
+    } else if (n..2.0 * n).contains(&x) {
+        x - n
+    } else {
+        x.rem_euclid(n)
+    }
+}
+
 /// Patch parameter of global coordinates `U ∈ [0, N]`, `V ∈ [0, M−1]`.
 #[inline]
 fn to_param(spline: &CasingSpline, gu: f64, gv: f64) -> SurfaceParam {
-    let i = (gu.floor().max(0.0) as usize).min(spline.n_sectors() - 1);
-    let j = (gv.floor().max(0.0) as usize).min(spline.nodes_per_sector() - 2);
+    // After `max(0)` a truncating cast is `floor` (and costs no `libm` call).
+    let i = (gu.max(0.0) as usize).min(spline.n_sectors() - 1);
+    let j = (gv.max(0.0) as usize).min(spline.nodes_per_sector() - 2);
     SurfaceParam {
         i,
         j,
@@ -602,6 +619,26 @@ pub fn friction_direction(n: &Vector3<f64>, increment: &Vector3<f64>) -> Option<
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    /// `wrap` is `rem_euclid` bit for bit: near the closing line, at its ends and zeros, and
+    /// far from it.
+    #[test]
+    fn wrap_is_rem_euclid() {
+        let n = 100.0;
+        let tiny = f64::EPSILON;
+        let xs = [
+            0.0, -0.0, tiny, -tiny, 1e-300, -1e-300, 0.3, 99.999_999, n, n - 1e-13, n + 1e-13,
+            -n, -n + 1e-13, -n - 1e-13, 2.0 * n, 2.0 * n - 1e-12, -0.7, 150.25, -250.5, 1e9,
+            f64::NAN, f64::INFINITY,
+        ];
+        for x in xs {
+            let (got, want) = (wrap(x, n), x.rem_euclid(n));
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "{x}: {got} vs {want}"
+            );
+        }
+    }
 
     /// The scan finds the one point that moved far, wherever it sits in the runs of four
     /// (each lane, and the partial run), and leaves `last` equal to `now`.
