@@ -8,7 +8,7 @@ pub mod spline;
 
 pub use imposed_gap::{GapDirection, GapProfile, ImposedGap};
 pub use projection::{
-    DEFAULT_EPS_NR, GapBounds, NodeProjectionError, Projection, ProjectionError, closest_point,
-    friction_direction, project_nodes,
+    DEFAULT_EPS_NR, GapBounds, LocalSurface, NodeProjectionError, Projection, ProjectionError,
+    closest_point, closest_point_local, friction_direction, project_nodes,
 };
 pub use spline::{CasingSpline, PatchEval, SplineError, SurfaceParam};

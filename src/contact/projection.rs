@@ -10,7 +10,7 @@
 //! by a projected Newton step (the closest point then lies on the boundary
 //! curve `v = 0` of row 0 or `v = 1` of row `M−2`).
 
-use super::spline::{CasingSpline, SplineError, SurfaceParam};
+use super::spline::{CasingSpline, PatchEval, SplineError, SurfaceParam};
 use crate::simd::{self, Isa};
 use nalgebra::Vector3;
 use thiserror::Error;
@@ -133,6 +133,63 @@ pub fn closest_point(
     warm_start: Option<SurfaceParam>,
     eps_nr: f64,
 ) -> Result<Projection, ProjectionError> {
+    closest_point_impl(spline, q, x, warm_start, eps_nr).map(|(p, _)| p)
+}
+
+/// [`closest_point`], with the surface as its last Newton iteration saw it: enough to project
+/// a point nearby again without evaluating the spline ([`LocalSurface::reproject`]).
+pub fn closest_point_local(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    x: Vector3<f64>,
+    warm_start: Option<SurfaceParam>,
+    eps_nr: f64,
+) -> Result<(Projection, LocalSurface), ProjectionError> {
+    closest_point_impl(spline, q, x, warm_start, eps_nr)
+}
+
+/// The casing surface about a closest point, at global parameters `(U, V)`: its point and
+/// tangents as [`closest_point`] returns them (the second-order Taylor expansion of its last
+/// Newton iteration's patch evaluation) and that evaluation's second derivatives.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LocalSurface {
+    e: PatchEval,
+    gu: f64,
+    gv: f64,
+}
+
+impl LocalSurface {
+    /// The closest point of `x` (m) when one Newton iteration from here already meets ε_NR
+    /// (`eps_nr`): the converging iteration of [`closest_point`] (the same step and the same
+    /// second-order finish, with the same O(|Δ|³) error) on this Taylor model of the surface,
+    /// without evaluating the spline. `None` when the step is longer, or the surface
+    /// degenerate here: project `x` with [`closest_point`].
+    pub fn reproject(
+        &self,
+        spline: &CasingSpline,
+        x: Vector3<f64>,
+        eps_nr: f64,
+    ) -> Option<Projection> {
+        let v_max = (spline.nodes_per_sector() - 1) as f64;
+        let (du, dv, gv) = newton_step(&self.e, &x, self.gv, v_max).ok()?;
+        if du.abs().max(dv.abs()) > eps_nr {
+            return None;
+        }
+        let gu = wrap(self.gu + du, spline.n_sectors() as f64);
+        converged(spline, &self.e, &x, (du, dv), (gu, gv), 1)
+            .ok()
+            .map(|(p, _)| p)
+    }
+}
+
+#[inline(always)]
+fn closest_point_impl(
+    spline: &CasingSpline,
+    q: &[Vector3<f64>],
+    x: Vector3<f64>,
+    warm_start: Option<SurfaceParam>,
+    eps_nr: f64,
+) -> Result<(Projection, LocalSurface), ProjectionError> {
     if !(x.x.is_finite() && x.y.is_finite() && x.z.is_finite()) {
         return Err(ProjectionError::NonFinitePoint { x: x.into() });
     }
@@ -167,71 +224,14 @@ pub fn closest_point(
     for it in 1..=MAX_NEWTON_ITERATIONS {
         let p = to_param(spline, gu, gv);
         let e = spline.eval_unchecked(q, p.i, p.j, p.u, p.v);
-        let r = x - e.s;
-        let (g_u, g_v) = (-e.su.dot(&r), -e.sv.dot(&r));
-        let (a_uu, a_uv, a_vv) = (e.su.dot(&e.su), e.su.dot(&e.sv), e.sv.dot(&e.sv));
-        let (mut h_uu, mut h_uv, mut h_vv) = (
-            a_uu - e.suu.dot(&r),
-            a_uv - e.suv.dot(&r),
-            a_vv - e.svv.dot(&r),
-        );
-        let gauss_det = a_uu * a_vv - a_uv * a_uv;
-        // Written positively so that NaN (non-finite control points) is rejected too.
-        let regular = gauss_det > 1e-14 * a_uu * a_vv;
-        if !regular {
-            return Err(ProjectionError::DegenerateSurface { param: p });
-        }
-        let newton_pd = h_uu > 0.0 && h_uu * h_vv - h_uv * h_uv > 1e-10 * a_uu * a_vv;
-        if !newton_pd {
-            (h_uu, h_uv, h_vv) = (a_uu, a_uv, a_vv);
-        }
-        // Projected Newton at the free edges: a bound stays active while the
-        // gradient pushes outward, and the step is then taken along u only.
-        let at_bound = (gv <= 0.0 && g_v > 0.0) || (gv >= v_max && g_v < 0.0);
-        let (mut du, mut dv) = if at_bound {
-            (-g_u / h_uu, 0.0)
-        } else {
-            let det = h_uu * h_vv - h_uv * h_uv;
-            (
-                (-h_vv * g_u + h_uv * g_v) / det,
-                (h_uv * g_u - h_uu * g_v) / det,
-            )
-        };
-        let len = du.abs().max(dv.abs());
-        if len > 1.0 {
-            du /= len;
-            dv /= len;
-        }
-        let new_gv = (gv + dv).clamp(0.0, v_max);
-        let dv = new_gv - gv;
+        let (du, dv, new_gv) = newton_step(&e, &x, gv, v_max)
+            .map_err(|()| ProjectionError::DegenerateSurface { param: p })?;
         last_step = du.abs().max(dv.abs());
         gu = wrap(gu + du, n);
         gv = new_gv;
         if last_step <= eps_nr {
-            // Converged. The final point and tangents come from the second-order Taylor
-            // expansion of this iteration's evaluation (error O(|Δ|³) in S, O(|Δ|²) in the
-            // tangents, far below round-off for |Δ| ≤ ε_NR) instead of one more patch evaluation.
-            let s = e.s
-                + e.su * du
-                + e.sv * dv
-                + (e.suu * (du * du) + e.suv * (2.0 * du * dv) + e.svv * (dv * dv)) * 0.5;
-            let su = e.su + e.suu * du + e.suv * dv;
-            let sv = e.sv + e.suv * du + e.svv * dv;
-            let raw = -su.cross(&sv);
-            let norm = raw.norm();
-            let p = to_param(spline, gu, gv);
-            let usable = norm > 0.0 && norm.is_finite();
-            if !usable {
-                return Err(ProjectionError::DegenerateSurface { param: p });
-            }
-            let normal = raw * (spline.normal_sign() / norm);
-            return Ok(Projection {
-                param: p,
-                point: s,
-                normal,
-                gap: normal.dot(&(x - s)),
-                iterations: it,
-            });
+            let (found, e) = converged(spline, &e, &x, (du, dv), (gu, gv), it)?;
+            return Ok((found, LocalSurface { e, gu, gv }));
         }
     }
     Err(ProjectionError::NotConverged {
@@ -240,6 +240,94 @@ pub fn closest_point(
         last_step,
         param: to_param(spline, gu, gv),
     })
+}
+
+/// One Newton iteration toward the closest point of `x` from the evaluation `e` at the global
+/// meridian parameter `gv`: the update `(ΔU, ΔV)`, capped at one patch and kept within the
+/// free edges `0 ≤ V ≤ v_max`, and the new `V`. `Err` where `S_u` and `S_v` are parallel or
+/// not finite.
+#[inline(always)]
+fn newton_step(
+    e: &PatchEval,
+    x: &Vector3<f64>,
+    gv: f64,
+    v_max: f64,
+) -> Result<(f64, f64, f64), ()> {
+    let r = x - e.s;
+    let (g_u, g_v) = (-e.su.dot(&r), -e.sv.dot(&r));
+    let (a_uu, a_uv, a_vv) = (e.su.dot(&e.su), e.su.dot(&e.sv), e.sv.dot(&e.sv));
+    let (mut h_uu, mut h_uv, mut h_vv) = (
+        a_uu - e.suu.dot(&r),
+        a_uv - e.suv.dot(&r),
+        a_vv - e.svv.dot(&r),
+    );
+    let gauss_det = a_uu * a_vv - a_uv * a_uv;
+    // Written positively so that NaN (non-finite control points) is rejected too.
+    let regular = gauss_det > 1e-14 * a_uu * a_vv;
+    if !regular {
+        return Err(());
+    }
+    let newton_pd = h_uu > 0.0 && h_uu * h_vv - h_uv * h_uv > 1e-10 * a_uu * a_vv;
+    if !newton_pd {
+        (h_uu, h_uv, h_vv) = (a_uu, a_uv, a_vv);
+    }
+    // Projected Newton at the free edges: a bound stays active while the
+    // gradient pushes outward, and the step is then taken along u only.
+    let at_bound = (gv <= 0.0 && g_v > 0.0) || (gv >= v_max && g_v < 0.0);
+    let (mut du, mut dv) = if at_bound {
+        (-g_u / h_uu, 0.0)
+    } else {
+        let det = h_uu * h_vv - h_uv * h_uv;
+        (
+            (-h_vv * g_u + h_uv * g_v) / det,
+            (h_uv * g_u - h_uu * g_v) / det,
+        )
+    };
+    let len = du.abs().max(dv.abs());
+    if len > 1.0 {
+        du /= len;
+        dv /= len;
+    }
+    let new_gv = (gv + dv).clamp(0.0, v_max);
+    Ok((du, new_gv - gv, new_gv))
+}
+
+/// The projection of `x` when the Newton update `(du, dv)` from the evaluation `e` met ε_NR,
+/// landing at global parameters `(gu, gv)` after `iterations`, and the surface there. The
+/// final point and tangents come from the second-order Taylor expansion of `e` (error O(|Δ|³)
+/// in S, O(|Δ|²) in the tangents, far below round-off for |Δ| ≤ ε_NR) instead of one more
+/// patch evaluation; the second derivatives are `e`'s.
+#[inline(always)]
+fn converged(
+    spline: &CasingSpline,
+    e: &PatchEval,
+    x: &Vector3<f64>,
+    (du, dv): (f64, f64),
+    (gu, gv): (f64, f64),
+    iterations: usize,
+) -> Result<(Projection, PatchEval), ProjectionError> {
+    let s = e.s
+        + e.su * du
+        + e.sv * dv
+        + (e.suu * (du * du) + e.suv * (2.0 * du * dv) + e.svv * (dv * dv)) * 0.5;
+    let su = e.su + e.suu * du + e.suv * dv;
+    let sv = e.sv + e.suv * du + e.svv * dv;
+    let raw = -su.cross(&sv);
+    let norm = raw.norm();
+    let p = to_param(spline, gu, gv);
+    let usable = norm > 0.0 && norm.is_finite();
+    if !usable {
+        return Err(ProjectionError::DegenerateSurface { param: p });
+    }
+    let normal = raw * (spline.normal_sign() / norm);
+    let found = Projection {
+        param: p,
+        point: s,
+        normal,
+        gap: normal.dot(&(x - s)),
+        iterations,
+    };
+    Ok((found, PatchEval { s, su, sv, ..*e }))
 }
 
 /// Projects every point of `xs` (e.g. all blade-tip nodes) with [`closest_point`],
@@ -627,9 +715,28 @@ mod tests {
         let n = 100.0;
         let tiny = f64::EPSILON;
         let xs = [
-            0.0, -0.0, tiny, -tiny, 1e-300, -1e-300, 0.3, 99.999_999, n, n - 1e-13, n + 1e-13,
-            -n, -n + 1e-13, -n - 1e-13, 2.0 * n, 2.0 * n - 1e-12, -0.7, 150.25, -250.5, 1e9,
-            f64::NAN, f64::INFINITY,
+            0.0,
+            -0.0,
+            tiny,
+            -tiny,
+            1e-300,
+            -1e-300,
+            0.3,
+            99.999_999,
+            n,
+            n - 1e-13,
+            n + 1e-13,
+            -n,
+            -n + 1e-13,
+            -n - 1e-13,
+            2.0 * n,
+            2.0 * n - 1e-12,
+            -0.7,
+            150.25,
+            -250.5,
+            1e9,
+            f64::NAN,
+            f64::INFINITY,
         ];
         for x in xs {
             let (got, want) = (wrap(x, n), x.rem_euclid(n));
@@ -758,6 +865,50 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// A point moved by far less than ε_NR of a patch from a projected one projects again on
+    /// the stored surface as the full projection does (to round-off, on a doubly curved
+    /// surface, across the closing line too); a point moved farther is left to the full
+    /// projection.
+    #[test]
+    fn local_reprojection_agrees_with_the_full_projection_nearby() {
+        let c = case(16, 4, |s| 0.2 + 0.1 * s * s, |s| 0.1 * s);
+        let n = c.sp.n_sectors();
+        for target in [
+            p(0, 0, 0.3, 0.4),
+            p(n - 1, 1, 0.999_999_9, 0.7),
+            p(5, 2, 0.5, 0.99),
+        ] {
+            let (x, _, nrm) = offset_point(&c, target, -1e-4);
+            let (first, local) =
+                closest_point_local(&c.sp, &c.q, x, Some(target), DEFAULT_EPS_NR).unwrap();
+            assert_eq!(
+                closest_point(&c.sp, &c.q, x, Some(target), DEFAULT_EPS_NR),
+                Ok(first)
+            );
+            let tangent = nrm.cross(&Vector3::z()).normalize();
+            // The largest: a patch-step of 5e-6, the surface curving away by 5e-13 m.
+            for shift in [1e-10, 1e-8, -3e-8, 5e-7] {
+                let y = x + shift * (tangent + 0.5 * nrm);
+                let near = local.reproject(&c.sp, y, DEFAULT_EPS_NR).unwrap();
+                let full =
+                    closest_point(&c.sp, &c.q, y, Some(first.param), DEFAULT_EPS_NR).unwrap();
+                // Round-off of coordinates at a radius of 0.3 m.
+                let ulps = 4.0 * f64::EPSILON * 0.3;
+                assert!(
+                    (near.gap - full.gap).abs() <= ulps,
+                    "{target:?} {shift}: {near:?} vs {full:?}"
+                );
+                assert!((near.point - full.point).norm() <= ulps);
+                assert!((near.normal - full.normal).norm() <= 1e-13);
+                let (a, b) = (global(&c.sp, &near.param), global(&c.sp, &full.param));
+                let du = (a.0 - b.0 + 0.5 * n as f64).rem_euclid(n as f64) - 0.5 * n as f64;
+                assert!(du.abs() <= 1e-12 && (a.1 - b.1).abs() <= 1e-12);
+            }
+            let far = x + 1e-3 * tangent;
+            assert_eq!(local.reproject(&c.sp, far, DEFAULT_EPS_NR), None);
         }
     }
 

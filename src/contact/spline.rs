@@ -102,7 +102,7 @@ pub struct SurfaceParam {
 }
 
 /// Position and derivatives of a patch at one `(u, v)` (eq. 6), in m (derivatives per unit `u`, `v`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PatchEval {
     /// Surface point `S(u, v)` (m).
     pub s: Vector3<f64>,

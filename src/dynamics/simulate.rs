@@ -10,8 +10,8 @@
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
-    CasingSpline, GapBounds, NodeProjectionError, Projection, SurfaceParam, closest_point,
-    friction_direction, project_nodes,
+    CasingSpline, GapBounds, LocalSurface, NodeProjectionError, Projection, SurfaceParam,
+    closest_point, closest_point_local, friction_direction, project_nodes,
 };
 use crate::dynamics::abradable::{AbradableError, CoatingLaw, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{
@@ -749,7 +749,7 @@ fn corrected_gaps(
     cs: &CasingSide,
     r_om: &Matrix3<f64>,
     c: &mut ContactProblem,
-    p: &mut Projector,
+    p: &Projector,
     (time, tol): (f64, f64),
 ) -> Result<(), SimError> {
     let nk = c.cands.len();
@@ -758,7 +758,7 @@ fn corrected_gaps(
         let du = blade_correction(&blades.kernel, blades.nb, &c.cands, &c.lambda, cd);
         let x = blades.nodes[cd.node] + r_om * (blades.rot[cd.blade] * du);
         let Some(flexible) = &cs.flexible else {
-            c.d[k] = project_one(cs, &x, cd.param, p, time)?.gap;
+            c.d[k] = project_one(cs, &x, cd.param, p, time)?.0.gap;
             continue;
         };
         let mut shift = None;
@@ -767,7 +767,8 @@ fn corrected_gaps(
             for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
                 t0 += c.vblk[k * nk + l] * (b.fdir * *lb);
             }
-            let first = project_one(cs, &(x + t0), cd.param, p, time)?;
+            let first;
+            (first, c.local[k]) = project_one(cs, &(x + t0), cd.param, p, time)?;
             if c.lambda[k] == 0.0 && first.gap > 2.0 * t0.norm() + tol {
                 // Open whatever the blocks where it projects; looked at again after a new λ.
                 c.d[k] = first.gap;
@@ -783,14 +784,15 @@ fn corrected_gaps(
             let step = param_distance(&c.phat[k], &c.cands[k].param);
             c.translation_rate[k] = (y - x - t0).norm() / step.max(f64::EPSILON);
         }
-        let mut at = project_one(cs, &y, c.phat[k], p, time)?;
+        let mut at = reproject(cs, &y, (&mut c.local[k], c.phat[k]), p, time)?;
         // What blocks taken at p̂_k would miss in the gap, were the closest point now at.
         let stale = c.translation_rate[k] * param_distance(&at.param, &c.phat[k]);
         if stale > 0.25 * tol {
             c.phat[k] = at.param;
             c.vhat[k * nk..(k + 1) * nk].fill(None);
             casing_blocks_at(flexible, &cs.spline, c, k)?;
-            at = project_one(cs, &translated(x, c, k), c.phat[k], p, time)?;
+            let y = translated(x, c, k);
+            at = reproject(cs, &y, (&mut c.local[k], c.phat[k]), p, time)?;
         }
         c.phat[k] = at.param;
         c.d[k] = at.gap;
@@ -819,25 +821,36 @@ fn param_distance(a: &SurfaceParam, b: &SurfaceParam) -> f64 {
     (along(a.i, a.u) - along(b.i, b.u)).abs() + (along(a.j, a.v) - along(b.j, b.v)).abs()
 }
 
-/// The closest point of `x` on the predicted casing surface, from `warm` (at time `time`, s).
+/// The closest point of `x` on the predicted casing surface, from `warm` (at time `time`, s),
+/// and the surface about it.
 fn project_one(
     cs: &CasingSide,
     x: &Vector3<f64>,
     warm: SurfaceParam,
-    p: &mut Projector,
+    p: &Projector,
+    time: f64,
+) -> Result<(Projection, LocalSurface), SimError> {
+    closest_point_local(&cs.spline, &cs.q, *x, Some(warm), p.eps)
+        .map_err(|source| projection_failed(time)(NodeProjectionError { node: 0, source }))
+}
+
+/// [`project_one`] for a point `x` near one projected before, about whose closest point
+/// `local` holds the surface: when one Newton iteration from there meets ε_NR, the projection
+/// is that iteration's ([`LocalSurface::reproject`], no spline evaluation); otherwise `x` is
+/// projected from `warm` and `local` moves to its closest point.
+fn reproject(
+    cs: &CasingSide,
+    x: &Vector3<f64>,
+    (local, warm): (&mut LocalSurface, SurfaceParam),
+    p: &Projector,
     time: f64,
 ) -> Result<Projection, SimError> {
-    p.res_warm[0] = Some(warm);
-    let found = project_nodes(
-        &cs.spline,
-        &cs.q,
-        std::slice::from_ref(x),
-        &mut p.res_warm,
-        p.eps,
-        &mut p.res_proj,
-    );
-    found.map_err(projection_failed(time))?;
-    Ok(p.res_proj[0])
+    if let Some(near) = local.reproject(&cs.spline, *x, p.eps) {
+        return Ok(near);
+    }
+    let (at, surface) = project_one(cs, x, warm, p, time)?;
+    *local = surface;
+    Ok(at)
 }
 
 /// The blocks `V(p̂_k, p_l)` of candidate k against the loaded candidates l (λ_l ≠ 0) that
@@ -925,6 +938,9 @@ struct ContactProblem {
     /// found open with a margin (box 4b).
     phat: Vec<SurfaceParam>,
     blocks_taken: Vec<bool>,
+    /// The casing surface about the closest point of each candidate's last exact projection
+    /// (box 4b): the later ones in the step move the point by far less than a patch.
+    local: Vec<LocalSurface>,
     /// Per candidate: how fast the casing's correction changes along the surface between
     /// `p_k` and `p̂_k` (m per unit of patch coordinates).
     translation_rate: Vec<f64>,
@@ -974,6 +990,7 @@ impl ContactProblem {
             ],
             vhat: vec![None; nn * nn],
             blocks_taken: vec![false; nn],
+            local: vec![LocalSurface::default(); nn],
             translation_rate: vec![0.0; nn],
             phat: vec![
                 SurfaceParam {
@@ -1588,7 +1605,7 @@ impl<'a> Simulation<'a> {
         for iteration in 0..=GAP_NEWTON_ITERATIONS {
             let c = &mut self.contact;
             let at = (self.t1, tol);
-            corrected_gaps(&self.blades, cs, &self.r_om, c, &mut self.projector, at)?;
+            corrected_gaps(&self.blades, cs, &self.r_om, c, &self.projector, at)?;
             let settled = (0..nk).all(|k| {
                 // On a coating element the condition is on its compression (`coated_solve`).
                 let g = match c.laws.get(k).copied().flatten() {
