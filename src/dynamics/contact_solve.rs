@@ -163,39 +163,52 @@ impl ControlFlexTable {
         nk.dot(&(self.pair_block(pk, pl) * fl))
     }
 
+    /// The basis weights of the surface point `p` on the table's control net
+    /// ([`ControlWeights`]), which [`ControlFlexTable::weighted_pair_block`] contracts.
+    pub fn weights(&self, p: &crate::contact::SurfaceParam) -> ControlWeights {
+        use crate::contact::spline::{cubic_basis, real_row_weights};
+        let (u, _, _) = cubic_basis(p.u);
+        let (v, _, _) = cubic_basis(p.v);
+        let (row, w) = real_row_weights(p.j, &v, self.m);
+        ControlWeights {
+            i: p.i,
+            u: u.into(),
+            row,
+            w,
+        }
+    }
+
     /// Flexibility between two surface points (m/N, global frame): the displacement of
     /// `S(pk)` per unit force at `S(pl)`, `V(k, l) = Σ_a Σ_b c^k_a c^l_b HQ(a, b)` over their 16
     /// control points and basis weights `c` (eq. 18). `V(l, k) = V(k, l)ᵀ` (Maxwell–Betti), so
-    /// a contact matrix needs it once per unordered pair. The tensor-product weights are
-    /// contracted along the meridian first, for the 7 distinct circumferential offsets, by
-    /// the products `w^k_a w^l_b` with the table's rows of four (~2.4k flops,
-    /// [`simd::meridian_sums`]), compiled for the table's SIMD path (its multiply-adds fused
-    /// where that path fuses them).
+    /// a contact matrix needs it once per unordered pair. See
+    /// [`ControlFlexTable::weighted_pair_block`].
     pub fn pair_block(
         &self,
         pk: &crate::contact::SurfaceParam,
         pl: &crate::contact::SurfaceParam,
     ) -> Matrix3<f64> {
-        simd::compiled_for(self.isa, |isa| self.pair_block_impl(isa, pk, pl))
+        self.weighted_pair_block(&self.weights(pk), &self.weights(pl))
     }
 
-    /// [`ControlFlexTable::pair_block`] on the path `isa`.
+    /// [`ControlFlexTable::pair_block`] of two points given by their weights
+    /// ([`ControlFlexTable::weights`], taken once per point when it pairs with many). The
+    /// tensor-product weights are contracted along the meridian first, for the 7 distinct
+    /// circumferential offsets, by the products `w^k_a w^l_b` with the table's rows of four
+    /// (~2.4k flops, [`simd::meridian_sums`]), compiled for the table's SIMD path (its
+    /// multiply-adds fused where that path fuses them).
+    pub fn weighted_pair_block(&self, k: &ControlWeights, l: &ControlWeights) -> Matrix3<f64> {
+        simd::compiled_for(self.isa, |isa| self.pair_block_impl(isa, k, l))
+    }
+
+    /// [`ControlFlexTable::weighted_pair_block`] on the path `isa`.
     #[inline(always)]
-    fn pair_block_impl(
-        &self,
-        isa: Isa,
-        pk: &crate::contact::SurfaceParam,
-        pl: &crate::contact::SurfaceParam,
-    ) -> Matrix3<f64> {
-        use crate::contact::spline::{cubic_basis, real_row_weights};
+    fn pair_block_impl(&self, isa: Isa, k: &ControlWeights, l: &ControlWeights) -> Matrix3<f64> {
         let (n, m) = (self.n, self.m);
         let st = m.max(4);
-        let (uk, _, _) = cubic_basis(pk.u);
-        let (vk, _, _) = cubic_basis(pk.v);
-        let (ul, _, _) = cubic_basis(pl.u);
-        let (vl, _, _) = cubic_basis(pl.v);
-        let (sk, wk) = real_row_weights(pk.j, &vk, m);
-        let (sl, wl) = real_row_weights(pl.j, &vl, m);
+        let (uk, ul) = (&k.u, &l.u);
+        let (sk, wk) = (k.row, &k.w);
+        let (sl, wl) = (l.row, &l.w);
         // V_δ, δ = α − β ∈ −3..=3, class offset i_k − i_l + δ, the meridian rows contracted
         // with the weights w^k_a w^l_b.
         let wkl: [[f64; 4]; 4] = std::array::from_fn(|a| std::array::from_fn(|b| wk[a] * wl[b]));
@@ -205,7 +218,7 @@ impl ControlFlexTable {
         // not be a constant there). Uninitialised, not zeroed: no `memset` per call.
         let mut v = [std::mem::MaybeUninit::<[f64; 12]>::uninit(); 7];
         // Class offsets i_k − i_l + δ for δ = −3..=3, wrapped.
-        let mut d = (pk.i + n * 4 - 3 - pl.i) % n;
+        let mut d = (k.i + n * 4 - 3 - l.i) % n;
         for vd in &mut v {
             let t = &self.flat[table_index(st, d, 0, (0, 0))..table_index(st, d + 1, 0, (0, 0))];
             vd.write(simd::meridian_sums(isa, t, st, first, &wkl));
@@ -225,7 +238,7 @@ impl ControlFlexTable {
             }
             // Column-major 3×3 (nalgebra layout), in the frame of class clb: R mb Rᵀ, with R
             // the rotation by the class angle about z.
-            let clb = (pl.i + beta + n - 1) % n;
+            let clb = (l.i + beta + n - 1) % n;
             out += rotate_about_z(self.cs[clb], &mb) * ul[beta];
         }
         out
@@ -265,6 +278,18 @@ impl ControlFlexTable {
             k => vec![(k - 1, 1.0)],
         }
     }
+}
+
+/// The weights of a surface point on the casing's control net (eq. 18): its patch column
+/// `i`, the four circumferential basis values of its control columns `i..i+4`, and its
+/// meridian weights on the real control rows `row..row+4` (eq. 10 folded in,
+/// [`crate::contact::spline::real_row_weights`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ControlWeights {
+    i: usize,
+    u: [f64; 4],
+    row: usize,
+    w: [f64; 4],
 }
 
 /// Index in [`ControlFlexTable`]'s `flat` of entry `e` of the 3×3 block of class offset `d`

@@ -15,7 +15,7 @@ use crate::contact::{
 };
 use crate::dynamics::abradable::{AbradableError, CoatingLaw, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{
-    CoatedBuffers, ControlFlexTable, NodeFlexTable, active_set_solve, coated_solve,
+    CoatedBuffers, ControlFlexTable, ControlWeights, NodeFlexTable, active_set_solve, coated_solve,
 };
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
@@ -865,9 +865,10 @@ fn casing_blocks_at(
     let nk = c.cands.len();
     match &f.kernel {
         Kernel::Modal { table, .. } => {
+            let at = table.weights(&c.phat[k]);
             for l in 0..nk {
                 if c.lambda[l] != 0.0 && c.vhat[k * nk + l].is_none() {
-                    c.vhat[k * nk + l] = Some(table.pair_block(&c.phat[k], &c.cands[l].param));
+                    c.vhat[k * nk + l] = Some(table.weighted_pair_block(&at, &c.weights[l]));
                 }
             }
         }
@@ -929,8 +930,10 @@ struct ContactProblem {
     active: Vec<usize>,
     lu: Vec<f64>,
     rhs: Vec<f64>,
-    /// Casing flexibility blocks `V(k, l)` (m/N, global) between the candidates' surface points.
+    /// Casing flexibility blocks `V(k, l)` (m/N, global) between the candidates' surface points,
+    /// and the points' weights on the control net (fast kernel).
     vblk: Vec<Matrix3<f64>>,
+    weights: Vec<ControlWeights>,
     /// Box 4b: `V(p̂_k, p_l)` between the point `p̂_k` where candidate k projects after the
     /// correction and the load points, computed once per step when first needed.
     vhat: Vec<Option<Matrix3<f64>>>,
@@ -988,6 +991,7 @@ impl ContactProblem {
                     0
                 }
             ],
+            weights: vec![ControlWeights::default(); nn],
             vhat: vec![None; nn * nn],
             blocks_taken: vec![false; nn],
             local: vec![LocalSurface::default(); nn],
@@ -2105,9 +2109,12 @@ fn casing_w(
     let w = &mut c.w[..nk * nk];
     match &f.kernel {
         Kernel::Modal { table, .. } => {
+            for (weights, cd) in c.weights.iter_mut().zip(&c.cands) {
+                *weights = table.weights(&cd.param);
+            }
             for (k, a) in c.cands.iter().enumerate() {
                 for (l, b) in c.cands.iter().enumerate().skip(k) {
-                    let v = table.pair_block(&a.param, &b.param);
+                    let v = table.weighted_pair_block(&c.weights[k], &c.weights[l]);
                     w[k * nk + l] += a.n.dot(&(v * b.fdir));
                     c.vblk[k * nk + l] = v;
                     if l != k {
