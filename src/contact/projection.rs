@@ -133,19 +133,7 @@ pub fn closest_point(
     warm_start: Option<SurfaceParam>,
     eps_nr: f64,
 ) -> Result<Projection, ProjectionError> {
-    closest_point_impl(spline, q, x, warm_start, eps_nr).map(|(p, _)| p)
-}
-
-/// [`closest_point`], with the surface as its last Newton iteration saw it: enough to project
-/// a point nearby again without evaluating the spline ([`LocalSurface::reproject`]).
-pub fn closest_point_local(
-    spline: &CasingSpline,
-    q: &[Vector3<f64>],
-    x: Vector3<f64>,
-    warm_start: Option<SurfaceParam>,
-    eps_nr: f64,
-) -> Result<(Projection, LocalSurface), ProjectionError> {
-    closest_point_impl(spline, q, x, warm_start, eps_nr)
+    closest_point_local(spline, q, x, warm_start, eps_nr).map(|(p, _)| p)
 }
 
 /// The casing surface about a closest point, at global parameters `(U, V)`: its point and
@@ -182,8 +170,11 @@ impl LocalSurface {
     }
 }
 
+/// [`closest_point`], with the surface as its last Newton iteration saw it: enough to project
+/// a point nearby again without evaluating the spline ([`LocalSurface::reproject`]). Inlined
+/// everywhere, so that [`closest_point`] does not even form the surface it drops.
 #[inline(always)]
-fn closest_point_impl(
+pub fn closest_point_local(
     spline: &CasingSpline,
     q: &[Vector3<f64>],
     x: Vector3<f64>,

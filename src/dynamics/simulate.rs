@@ -743,7 +743,9 @@ const GAP_NEWTON_ITERATIONS: usize = 3;
 /// step finds `p̂_k` with the candidates' own blocks `V(p_k, p_l)`; an inactive candidate
 /// then open by more than twice that translation (plus `tol`, m) stays open whatever the
 /// blocks at `p̂_k` and is not looked at again this step; the others take `V(p̂_k, p_l)` of
-/// the loaded candidates, kept while `p̂_k` does not move.
+/// the loaded candidates, kept while `p̂_k` does not move. The later projections of a step
+/// move the point by round-off to a few nm: one Newton iteration on the surface kept from
+/// the last full projection ([`reproject`]).
 fn corrected_gaps(
     blades: &Blades,
     cs: &CasingSide,
