@@ -439,15 +439,8 @@ fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
         v["grid"]["coating"] = serde_json::json!({"young": {"scale": [1.0, 1e6]}});
     });
     let out = dir.join("out");
-    let st = rubscan()
-        .args(["run", "--threads", "1"])
-        .arg(&spec)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&st.stderr);
-    assert_eq!(st.status.code(), Some(1), "{err}");
+    let (code, err) = run_to(&spec, &out);
+    assert_eq!(code, Some(1), "{err}");
     for e in ["/grid/coating", "job 1", "coating too stiff", "time_step"] {
         assert!(err.contains(e), "{e:?} not in {err}");
     }

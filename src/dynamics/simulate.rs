@@ -3163,9 +3163,14 @@ mod tests {
         })
     }
 
-    /// The tip of [`spring_mass_rom`] on a massless boundary, thrown outward at `v0` (m/s) from
-    /// rest position, at rest otherwise: `duration` (s) at step `h` (s), with `coating`.
-    fn thrown_tip_case(v0: f64, duration: f64, h: f64, coating: Option<CoatingCase>) -> Case {
+    /// A case without rotation, load or friction, at rest but for the impeller's boundary
+    /// velocity `v` (m/s, sector-major): `duration` (s) with `numerics` and `coating`.
+    fn thrown_case(
+        v: Vec<f64>,
+        duration: f64,
+        numerics: Numerics,
+        coating: Option<CoatingCase>,
+    ) -> Case {
         Case {
             omega: 0.0,
             duration,
@@ -3175,18 +3180,30 @@ mod tests {
             casing_probes: vec![],
             probes: vec![],
             initial_velocity: InitialVelocity {
-                impeller: Some(vec![v0, 0.0, 0.0, v0, 0.0, 0.0]),
+                impeller: Some(v),
                 casing: None,
             },
-            numerics: Numerics {
-                time_step: Some(h),
-                decimation: 1,
-                newton_tolerance: 1e-12,
-                boundary: Boundary::Massless,
-                ..Default::default()
-            },
+            numerics,
             coating,
         }
+    }
+
+    /// The tip of [`spring_mass_rom`] on a massless boundary, thrown outward at `v0` (m/s) from
+    /// rest position, at rest otherwise: `duration` (s) at step `h` (s), with `coating`.
+    fn thrown_tip_case(v0: f64, duration: f64, h: f64, coating: Option<CoatingCase>) -> Case {
+        let numerics = Numerics {
+            time_step: Some(h),
+            decimation: 1,
+            newton_tolerance: 1e-12,
+            boundary: Boundary::Massless,
+            ..Default::default()
+        };
+        thrown_case(
+            vec![v0, 0.0, 0.0, v0, 0.0, 0.0],
+            duration,
+            numerics,
+            coating,
+        )
     }
 
     #[test]
@@ -3199,26 +3216,13 @@ mod tests {
         let w = (k / m).sqrt();
         let h = 1e-3 / w;
         let v0 = 2.0 * g0 * w;
-        let case = Case {
-            omega: 0.0,
-            duration: 3.0 * 2.0 * PI / w,
-            friction: 0.0,
-            load: None,
-            clearance_offset: vec![],
-            casing_probes: vec![],
-            probes: vec![],
-            initial_velocity: InitialVelocity {
-                impeller: Some(vec![v0, 0.0, 0.0]),
-                casing: None,
-            },
-            numerics: Numerics {
-                time_step: Some(h),
-                decimation: 1,
-                newton_tolerance: 1e-12,
-                ..Default::default()
-            },
-            coating: None,
+        let numerics = Numerics {
+            time_step: Some(h),
+            decimation: 1,
+            newton_tolerance: 1e-12,
+            ..Default::default()
         };
+        let case = thrown_case(vec![v0, 0.0, 0.0], 3.0 * 2.0 * PI / w, numerics, None);
         let out = simulate(&case, &rom, &casing, None).unwrap();
         let tc = (g0 * w / v0).asin() / w;
         // The discrete impact spreads over ≤ 2 steps: a timing error ≤ 2h, i.e. ≤ 2 ωh g0 in u.
@@ -3615,26 +3619,13 @@ mod tests {
                 v[s * 6 + 3 * j] = scale * (30.0 + 10.0 * s as f64);
             }
         }
-        let case = Case {
-            omega: 0.0,
-            duration: 3e-3,
-            friction: 0.0,
-            load: None,
-            clearance_offset: vec![],
-            casing_probes: vec![],
-            probes: vec![],
-            initial_velocity: InitialVelocity {
-                impeller: Some(v),
-                casing: None,
-            },
-            numerics: Numerics {
-                time_step: Some(h),
-                decimation: 1,
-                boundary,
-                ..Default::default()
-            },
-            coating: None,
+        let numerics = Numerics {
+            time_step: Some(h),
+            decimation: 1,
+            boundary,
+            ..Default::default()
         };
+        let case = thrown_case(v, 3e-3, numerics, None);
         let out = simulate(&case, &imp, &CasingModel::Flexible(cas), None).unwrap();
         assert!(
             out.summary.contact_steps > 5,
