@@ -381,6 +381,14 @@ fn check_lengths(nodes: usize, warm: usize, out: usize) -> Result<(), NodeProjec
     Ok(())
 }
 
+/// A node's change of global parameter `(U, V)` over its last step, and over the step before
+/// when it was projected in both.
+#[derive(Clone, Copy, Debug)]
+struct Trend {
+    last: (f64, f64),
+    before: Option<(f64, f64)>,
+}
+
 /// Conservative lower bounds on the gaps of nodes between their projections, so that nodes
 /// far from the casing need not be projected every step ([`GapBounds::project_near`]).
 ///
@@ -390,10 +398,12 @@ fn check_lengths(nodes: usize, warm: usize, out: usize) -> Result<(), NodeProjec
 /// at `x₀` with gap `d₀` has now, at `x`, a gap `d ≥ d₀ − |x − x₀| − D`, where `D` sums the
 /// largest control-point displacement of every surface update since.
 ///
-/// Warm starts are extrapolated: a node projected in each of the last two calls starts from
-/// its closest point moved on by the last change (a second difference away from the answer,
-/// so Newton usually stops after one iteration); any other node sweeping about the casing
-/// axis (a blade tip) starts from its last closest point advanced by the angle swept since.
+/// Warm starts are extrapolated: a node projected in each of the last two time steps
+/// ([`GapBounds::next_step`]) starts from its closest point moved on by the last step's change
+/// (a second difference away from the answer, so Newton usually stops after one iteration);
+/// any other node sweeping about the casing axis (a blade tip) starts from its last closest
+/// point advanced by the angle swept since. A node projected again within a step (after the
+/// coating's forces) keeps the change of its first projection in the step.
 #[derive(Clone, Debug)]
 pub struct GapBounds {
     /// Gap (m), position and cumulative surface drift (m) at each node's last projection.
@@ -406,12 +416,12 @@ pub struct GapBounds {
     /// Patch lengths along `u` per radian swept counterclockwise about z (±N/2π, the sign
     /// from the order of the sectors).
     u_per_radian: f64,
-    /// Calls so far (from 1, so that no node counts as projected in the previous call before
-    /// the first), the call of each node's last projection, and the change of its global
-    /// parameter `(U, V)` over its last two projections when they were in consecutive calls.
-    calls: u64,
-    last_call: Vec<u64>,
-    trend: Vec<Option<(f64, f64)>>,
+    /// Time steps begun so far (from 1, so that no node counts as projected in the previous
+    /// step before the first), the step of each node's last projection, and the change of its
+    /// global parameter `(U, V)` over its last two steps when it was projected in both.
+    steps: u64,
+    last_step: Vec<u64>,
+    trend: Vec<Option<Trend>>,
     /// The nodes beyond the margin in a call, with their bounds (work buffer).
     far: Vec<(f64, usize)>,
 }
@@ -426,8 +436,8 @@ impl GapBounds {
             drift: 0.0,
             q_last: Vec::new(),
             u_per_radian: 0.0,
-            calls: 1,
-            last_call: vec![0; n_nodes],
+            steps: 1,
+            last_step: vec![0; n_nodes],
             trend: vec![None; n_nodes],
             far: Vec::with_capacity(n_nodes),
         }
@@ -439,13 +449,26 @@ impl GapBounds {
     }
 
     /// Guessed change of node `k`'s global parameter since its last projection, now at `x`:
-    /// its last change if it was projected in the previous call too, else the angle it swept.
+    /// its last step's change if it was last projected in the previous step, else the angle it
+    /// swept (within a step: next to none).
     fn step_guess(&self, k: usize, x: &Vector3<f64>, consecutive: bool) -> (f64, f64) {
-        self.trend[k].filter(|_| consecutive).unwrap_or_else(|| {
+        let trend = self.trend[k]
+            .filter(|_| consecutive)
+            .map(|t| match t.before {
+                Some(b) => (2.0 * t.last.0 - b.0, 2.0 * t.last.1 - b.1),
+                None => t.last,
+            });
+        trend.unwrap_or_else(|| {
             let x0 = self.x[k];
             let swept = (x0.x * x.y - x0.y * x.x).atan2(x0.x * x.x + x0.y * x.y);
             (swept * self.u_per_radian, 0.0)
         })
+    }
+
+    /// Begins a time step: the next projection of each node extrapolates its warm start over
+    /// the step; those after it in the same step start where it ended.
+    pub fn next_step(&mut self) {
+        self.steps += 1;
     }
 
     /// [`project_nodes`] restricted to the nodes whose gap bound is not above `margin` (m).
@@ -478,7 +501,6 @@ impl GapBounds {
             let n = spline.n_sectors() as f64 / std::f64::consts::TAU;
             self.u_per_radian = if ccw { n } else { -n };
         }
-        self.calls += 1;
         let mut projected = 0;
         let mut min_gap = f64::INFINITY;
         self.far.clear();
@@ -545,7 +567,7 @@ impl GapBounds {
         p: SurfaceParam,
     ) -> SurfaceParam {
         let n = spline.n_sectors() as f64;
-        let consecutive = self.last_call[node] + 1 == self.calls;
+        let consecutive = self.last_step[node] + 1 == self.steps;
         let (du, dv) = self.step_guess(node, x, consecutive);
         to_param(
             spline,
@@ -568,19 +590,28 @@ impl GapBounds {
     ) -> Result<(), NodeProjectionError> {
         let n = spline.n_sectors() as f64;
         let start = warm[node].map(|p| (p.i as f64 + p.u, p.j as f64 + p.v));
-        let consecutive = self.last_call[node] + 1 == self.calls;
+        let (same_step, consecutive) = (
+            self.last_step[node] == self.steps,
+            self.last_step[node] + 1 == self.steps,
+        );
         if let Some(p) = warm[node] {
             warm[node] = Some(self.extrapolated(spline, node, x, p));
         }
         project_node(spline, q, node, x, &mut warm[node], eps_nr, &mut out[node])?;
         let p = out[node].param;
-        self.trend[node] = start.filter(|_| consecutive).map(|(gu, gv)| {
-            // The shorter way round the closed direction.
-            let du = wrap(p.i as f64 + p.u - gu, n);
-            let du = if du > 0.5 * n { du - n } else { du };
-            (du, p.j as f64 + p.v - gv)
-        });
-        self.last_call[node] = self.calls;
+        if !same_step {
+            let before = self.trend[node].map(|t| t.last);
+            self.trend[node] = start.filter(|_| consecutive).map(|(gu, gv)| {
+                // The shorter way round the closed direction.
+                let du = wrap(p.i as f64 + p.u - gu, n);
+                let du = if du > 0.5 * n { du - n } else { du };
+                Trend {
+                    last: (du, p.j as f64 + p.v - gv),
+                    before,
+                }
+            });
+        }
+        self.last_step[node] = self.steps;
         self.gap[node] = out[node].gap;
         self.x[node] = *x;
         self.drift_then[node] = self.drift;
@@ -922,25 +953,16 @@ mod tests {
             let mut plain = vec![Projection::default(); 3];
             // Iterations of [the second projection, later ones] × [GapBounds, plain].
             let mut iterations = [[0; 2]; 2];
-            for step in 0..50 {
-                let xs: Vec<Vector3<f64>> = (0..3)
+            let at = |step: usize, twist: f64| -> Vec<Vector3<f64>> {
+                (0..3)
                     .map(|k| {
-                        let th = 0.02 * step as f64 + 2.0 * k as f64;
+                        let th = 0.02 * step as f64 + 2.0 * k as f64 + twist;
                         Vector3::new(0.29 * th.cos(), 0.29 * th.sin(), 0.02 + 0.03 * k as f64)
                     })
-                    .collect();
-                bounds
-                    .project_near(
-                        &c.sp,
-                        &c.q,
-                        &xs,
-                        &mut warm_swept,
-                        DEFAULT_EPS_NR,
-                        &mut swept,
-                        0.0,
-                        true,
-                    )
-                    .unwrap();
+                    .collect()
+            };
+            for step in 0..50 {
+                let xs = at(step, 0.0);
                 project_nodes(
                     &c.sp,
                     &c.q,
@@ -950,18 +972,77 @@ mod tests {
                     &mut plain,
                 )
                 .unwrap();
-                for k in 0..3 {
-                    assert!((swept[k].point - plain[k].point).norm() < 1e-9);
-                    if step > 0 {
-                        let later = usize::from(step > 1);
-                        iterations[later][0] += swept[k].iterations;
-                        iterations[later][1] += plain[k].iterations;
+                bounds.next_step();
+                // The step's projection, then one within the step (as after the coating's
+                // forces) of the points 1 µrad further round: it must not spoil the next
+                // step's warm start.
+                for twist in [0.0, 1e-6] {
+                    bounds
+                        .project_near(
+                            &c.sp,
+                            &c.q,
+                            &at(step, twist),
+                            &mut warm_swept,
+                            DEFAULT_EPS_NR,
+                            &mut swept,
+                            0.0,
+                            true,
+                        )
+                        .unwrap();
+                    if twist != 0.0 {
+                        continue;
+                    }
+                    for k in 0..3 {
+                        assert!((swept[k].point - plain[k].point).norm() < 1e-9);
+                        if step > 0 {
+                            let later = usize::from(step > 1);
+                            iterations[later][0] += swept[k].iterations;
+                            iterations[later][1] += plain[k].iterations;
+                        }
                     }
                 }
             }
             let [second, later] = iterations;
             assert!(second[0] < second[1], "{second:?}");
             assert!(later[0] == 3 * 48 && later[1] > later[0], "{later:?}");
+        }
+    }
+
+    #[test]
+    fn warm_starts_follow_a_node_that_speeds_up() {
+        // Nodes at 0.002 rad per step (0.008 patch lengths), speeding up by 2e-5 rad per step:
+        // the last step's change alone misses by 8e-5 patch lengths (8 ε_NR), its change from
+        // the step before as well leaves a third difference. From the fourth step on, one
+        // Newton iteration each (all nodes are within the 1 m margin).
+        let c = cylinder();
+        let mut bounds = GapBounds::new(3);
+        let mut warm = vec![None; 3];
+        let mut out = vec![Projection::default(); 3];
+        for step in 0..40 {
+            let s = step as f64;
+            let xs: Vec<Vector3<f64>> = (0..3)
+                .map(|k| {
+                    let th = 0.002 * s + 1e-5 * s * s + 2.0 * k as f64;
+                    Vector3::new(0.29 * th.cos(), 0.29 * th.sin(), 0.02 + 0.03 * k as f64)
+                })
+                .collect();
+            bounds.next_step();
+            bounds
+                .project_near(
+                    &c.sp,
+                    &c.q,
+                    &xs,
+                    &mut warm,
+                    DEFAULT_EPS_NR,
+                    &mut out,
+                    1.0,
+                    false,
+                )
+                .unwrap();
+            if step >= 3 {
+                let iterations: Vec<usize> = out.iter().map(|p| p.iterations).collect();
+                assert_eq!(iterations, [1; 3], "step {step}");
+            }
         }
     }
 
@@ -1004,6 +1085,8 @@ mod tests {
                 })
                 .collect();
             project_nodes(&c.sp, &c.q, &xs, &mut warm_all, DEFAULT_EPS_NR, &mut full).unwrap();
+            bounds.next_step();
+            min_bounds.next_step();
             let done = bounds
                 .project_near(
                     &c.sp,

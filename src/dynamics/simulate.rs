@@ -1353,6 +1353,7 @@ impl<'a> Simulation<'a> {
                 return Ok(());
             }
         };
+        p.bounds.next_step();
         let found = p.bounds.project_near(
             &cs.spline,
             &cs.q,
