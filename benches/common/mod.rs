@@ -221,8 +221,9 @@ pub fn bench_default_models(
 }
 
 /// [`bench_default_models`] with the nominal coating ([`CoatingMaterial::nominal`], 2 mm
-/// thick: every trailing-edge tip node of the built-in models is in it all around) of `eta`
-/// elements per row, or without coating (`None`).
+/// thick) of `eta` elements per row, or without coating (`None`). As in a sweep job, the
+/// clearances are to the coating's unworn surface: the tips move in by its thickness, and the
+/// load cuts the coating near the lobes as it makes the uncoated tips rub.
 pub fn bench_default_models_coated(
     kernel: KernelChoice,
     contact: bool,
@@ -259,6 +260,7 @@ pub fn default_models_case(
         eta,
         ..CoatingCase::new(CoatingMaterial::nominal())
     });
+    let e_abr = coating.as_ref().map_or(0.0, |c| c.material.thickness);
     let numerics = Numerics {
         time_step: Some(h),
         kernel,
@@ -267,7 +269,7 @@ pub fn default_models_case(
     Ok(coated_case(
         omega,
         numerics,
-        vec![0.0; rows],
+        vec![-e_abr; rows],
         load,
         coating,
         steps,
