@@ -3,9 +3,9 @@
 //! `common::bench_default_models` (the quickstart's rub), without coating and with the nominal
 //! 2 mm coating at η = 1500 and η = 6000 elements per row, the tips at the same clearance from
 //! its unworn surface as a sweep job places them (the coating then takes the rub that the bare
-//! casing's Lagrange contact takes without it). The three runs alternate in one process, `BENCH_ROUNDS` times
-//! (default 3), and the best time of each is kept: coated / uncoated is measured on the same
-//! machine state. Also prints each coated run's wear (sum and maximum, m) and peak force at full
+//! casing's Lagrange contact takes without it). The three runs alternate in one process,
+//! `BENCH_ROUNDS` times (default 3), and the best time of each is kept: coated / uncoated is
+//! measured on the same machine state. Also prints each coated run's wear (sum and maximum, m) and peak force at full
 //! precision, to compare the results of two builds. `BENCH_STEPS` (default 20000).
 //!
 //! `cargo bench --bench coating_cost`

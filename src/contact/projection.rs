@@ -398,12 +398,14 @@ struct Trend {
 /// at `x₀` with gap `d₀` has now, at `x`, a gap `d ≥ d₀ − |x − x₀| − D`, where `D` sums the
 /// largest control-point displacement of every surface update since.
 ///
-/// Warm starts are extrapolated: a node projected in each of the last two time steps
-/// ([`GapBounds::next_step`]) starts from its closest point moved on by the last step's change
-/// (a second difference away from the answer, so Newton usually stops after one iteration);
-/// any other node sweeping about the casing axis (a blade tip) starts from its last closest
-/// point advanced by the angle swept since. A node projected again within a step (after the
-/// coating's forces) keeps the change of its first projection in the step.
+/// Warm starts are extrapolated over a time step ([`GapBounds::next_step`]): a node projected
+/// in each of the last three steps starts from its closest point moved on by the last step's
+/// change plus that change's own change (a third difference away from the answer, so Newton
+/// usually stops after one iteration: a blade tip's parameter speed varies by ~ε_NR per step);
+/// after two steps, by the last change alone; any other node sweeping about the casing axis
+/// (a blade tip) starts from its last closest point advanced by the angle swept since. A node
+/// projected again within a step (after the coating's forces) keeps the change of its first
+/// projection in the step.
 #[derive(Clone, Debug)]
 pub struct GapBounds {
     /// Gap (m), position and cumulative surface drift (m) at each node's last projection.
@@ -449,8 +451,9 @@ impl GapBounds {
     }
 
     /// Guessed change of node `k`'s global parameter since its last projection, now at `x`:
-    /// its last step's change if it was last projected in the previous step, else the angle it
-    /// swept (within a step: next to none).
+    /// if it was last projected in the previous step, its last step's change, extrapolated to
+    /// second order when the step before is known; else the angle it swept (within a step:
+    /// next to none).
     fn step_guess(&self, k: usize, x: &Vector3<f64>, consecutive: bool) -> (f64, f64) {
         let trend = self.trend[k]
             .filter(|_| consecutive)
