@@ -424,6 +424,30 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A coating so thick that the clearance to its unworn surface would take the tips off the
+/// casing, at a grid point that is not the stiffest coating, is refused by `run` before any job
+/// runs: exit status 1, the message names the grid field, the job and the reason, and nothing
+/// is written. (Its job would fail at its start, its tips' projections lost.)
+#[test]
+fn a_coating_too_thick_for_the_casing_is_refused_before_any_job_runs() {
+    let dir = tmp("thickcoating");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_with(&dir, "spec", |v| {
+        v["scenario"]["duration_s"] = serde_json::json!(0.0005);
+        v["scenario"]["load_ramp_s"] = serde_json::json!(0.0002);
+        v["grid"]["speed"]["values"] = serde_json::json!([2000]);
+        v["grid"]["friction"] = serde_json::json!([0.1]);
+        v["grid"]["coating"] = serde_json::json!({"thickness": {"values": [0.002, 0.5]}});
+    });
+    let out = dir.join("out");
+    let (code, err) = run_to(&spec, &out);
+    assert_eq!(code, Some(1), "{err}");
+    for e in ["/grid/coating", "job 1", "thickness_m", "off the casing"] {
+        assert!(err.contains(e), "{e:?} not in {err}");
+    }
+    assert!(!out.exists(), "output written: {err}");
+}
+
 /// A coating too stiff for the explicit step at one grid point (the limit k·w < 1 that the
 /// time loop needs) is refused by `run` before any job runs: exit status 1, the message names
 /// the grid field, the job and the reason, and nothing is written.

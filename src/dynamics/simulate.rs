@@ -308,30 +308,45 @@ impl Blades {
     /// clearance of the built-in models and the coating thickness are measured. (A radial
     /// shift changes the gap only by its normal part: nothing at a radial outlet, where the
     /// normal is axial, so a coating's thickness would not be added to the clearance there.)
+    ///
+    /// Along the normal a tip keeps its closest point, so its gap grows by the offset exactly;
+    /// an offset that breaks this (a coating thick against the casing, which takes a tip past
+    /// a free edge of the casing or across its axis) leaves no clearance to measure and is
+    /// refused, naming the row.
     fn shift_tips_toward(&mut self, case: &Case, side: &CasingSide) -> Result<(), SimError> {
         if case.clearance_offset.is_empty() {
             return Ok(());
         }
+        let eps = case.numerics.newton_tolerance;
+        let at_rest = |x: Vector3<f64>| closest_point(&side.spline, &side.q, x, None, eps);
         // At t = 0 blade 0's frame is the fixed frame; the casing at rest is cyclic, so one
-        // blade's directions hold for all.
-        let dir = (self.reference.iter())
+        // blade's projections hold for all.
+        let before = (self.reference.iter())
             .enumerate()
             .map(|(j, x)| {
-                closest_point(
-                    &side.spline,
-                    &side.q,
-                    *x,
-                    None,
-                    case.numerics.newton_tolerance,
-                )
-                .map(|p| -p.normal)
-                .map_err(|e| SimError::Projection {
+                at_rest(*x).map_err(|e| SimError::Projection {
                     time: 0.0,
                     reason: format!("tip node {j} on the casing at rest: {e}"),
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
+        let dir: Vec<Vector3<f64>> = before.iter().map(|p| -p.normal).collect();
         self.shift_tips(&case.clearance_offset, &dir);
+        for (j, p) in before.iter().enumerate() {
+            let offset = case.clearance_offset[self.rows[j]];
+            let expected = p.gap - offset;
+            let kept = at_rest(self.reference[j])
+                .is_ok_and(|q| (q.gap - expected).abs() <= 1e-9 + 1e-6 * offset.abs());
+            if !kept {
+                return Err(SimError::InvalidCase(format!(
+                    "the clearance offset of tip row {} ({offset:e} m along the casing normal: \
+                     the coating's thickness_m, and a clearance_m axis if any) takes tip node \
+                     {j} off the casing at rest, so that it is no longer {expected:.4e} m from \
+                     it; the coating must be thin against the casing",
+                    self.rows[j]
+                )));
+            }
+        }
         Ok(())
     }
 

@@ -315,30 +315,33 @@ impl ModelSimulator {
         &self.impeller
     }
 
-    /// Sets up, without running it, the job of stiffest coating (largest `E / e_abr`) at each
-    /// speed of `jobs`: the explicit coating force's limit `k·w < 1` (`k = E A / e_abr`, the
-    /// contact flexibility `w ∝ h²`), which a job would otherwise meet at its own start, is
+    /// Sets up, without running them, the jobs of stiffest coating (largest `E / e_abr`) and of
+    /// thickest coating at each speed of `jobs`: the explicit coating force's limit `k·w < 1`
+    /// (`k = E A / e_abr`, the contact flexibility `w ∝ h²`) and a clearance offset that keeps
+    /// the tips facing the casing, which a job would otherwise meet at its own start, are
     /// checked before any job runs. A job that cannot start is a spec issue at
     /// `/scenario/coating` (or `/grid/coating` when the grid varies the coating), naming the job.
     pub fn check_coating_limits(&self, jobs: &[Job]) -> Result<(), SpecError> {
-        let stiffness = |job: &Job| {
-            job_coating(&job.context.scenario, &job.params.coating)
-                .map(|c| c.material.young / c.material.thickness)
-        };
-        let mut stiffest: Vec<(&Job, f64)> = Vec::new();
+        let keys: [fn(&CoatingMaterial) -> f64; 2] = [|m| m.young / m.thickness, |m| m.thickness];
+        let mut extreme: Vec<(&Job, f64, usize)> = Vec::new();
         for job in jobs {
-            let Some(k) = stiffness(job) else { continue };
+            let Some(c) = job_coating(&job.context.scenario, &job.params.coating) else {
+                continue;
+            };
             let speed = job.params.speed_rad_s;
-            match stiffest
-                .iter_mut()
-                .find(|(j, _)| j.params.speed_rad_s == speed)
-            {
-                Some(entry) if entry.1 >= k => {}
-                Some(entry) => *entry = (job, k),
-                None => stiffest.push((job, k)),
+            for (which, key) in keys.iter().enumerate() {
+                let k = key(&c.material);
+                match (extreme.iter_mut())
+                    .find(|(j, _, w)| *w == which && j.params.speed_rad_s == speed)
+                {
+                    Some(entry) if entry.1 >= k => {}
+                    Some(entry) => *entry = (job, k, which),
+                    None => extreme.push((job, k, which)),
+                }
             }
         }
-        for (job, _) in stiffest {
+        extreme.dedup_by_key(|(j, _, _)| j.index);
+        for (job, _, _) in extreme {
             let (case, casing, _) = self
                 .case_for_job(job)
                 .map_err(|e| SpecError::one("", format!("{e:#}")))?;
