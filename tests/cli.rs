@@ -424,28 +424,41 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// A coating so thick that the clearance to its unworn surface would take the tips off the
-/// casing, at a grid point that is not the stiffest coating, is refused by `run` before any job
-/// runs: exit status 1, the message names the grid field, the job and the reason, and nothing
-/// is written. (Its job would fail at its start, its tips' projections lost.)
-#[test]
-fn a_coating_too_thick_for_the_casing_is_refused_before_any_job_runs() {
-    let dir = tmp("thickcoating");
-    std::fs::create_dir_all(&dir).unwrap();
-    let spec = small_with(&dir, "spec", |v| {
+/// The small sweep, 0.5 ms at one speed and friction, with `coating` as its grid's coating axes.
+fn small_coated(dir: &Path, tag: &str, coating: serde_json::Value) -> PathBuf {
+    small_with(dir, tag, |v| {
         v["scenario"]["duration_s"] = serde_json::json!(0.0005);
         v["scenario"]["load_ramp_s"] = serde_json::json!(0.0002);
         v["grid"]["speed"]["values"] = serde_json::json!([2000]);
         v["grid"]["friction"] = serde_json::json!([0.1]);
-        v["grid"]["coating"] = serde_json::json!({"thickness": {"values": [0.002, 0.5]}});
-    });
-    let out = dir.join("out");
-    let (code, err) = run_to(&spec, &out);
+        v["grid"]["coating"] = coating;
+    })
+}
+
+/// `rubscan run spec -o out` is refused before any job runs: exit status 1, every one of
+/// `expect` in its message, and nothing written.
+fn assert_run_refused(spec: &Path, out: &Path, expect: &[&str]) {
+    let (code, err) = run_to(spec, out);
     assert_eq!(code, Some(1), "{err}");
-    for e in ["/grid/coating", "job 1", "thickness_m", "off the casing"] {
+    for e in expect {
         assert!(err.contains(e), "{e:?} not in {err}");
     }
     assert!(!out.exists(), "output written: {err}");
+}
+
+/// A coating so thick that the clearance to its unworn surface would take the tips off the
+/// casing, at a grid point that is not the stiffest coating, is refused by `run` before any job
+/// runs, naming the grid field, the job and the reason. (Its job would fail at its start, its
+/// tips' projections lost.)
+#[test]
+fn a_coating_too_thick_for_the_casing_is_refused_before_any_job_runs() {
+    let dir = tmp("thickcoating");
+    std::fs::create_dir_all(&dir).unwrap();
+    let axis = serde_json::json!({"thickness": {"values": [0.002, 0.5]}});
+    let spec = small_coated(&dir, "spec", axis);
+    let expect = ["/grid/coating", "job 1", "thickness_m", "off the casing"];
+    assert_run_refused(&spec, &dir.join("out"), &expect);
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// A coating too stiff for the explicit step at one grid point (the limit k·w < 1 that the
@@ -455,20 +468,14 @@ fn a_coating_too_thick_for_the_casing_is_refused_before_any_job_runs() {
 fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
     let dir = tmp("stiffcoating");
     std::fs::create_dir_all(&dir).unwrap();
-    let spec = small_with(&dir, "spec", |v| {
-        v["scenario"]["duration_s"] = serde_json::json!(0.0005);
-        v["scenario"]["load_ramp_s"] = serde_json::json!(0.0002);
-        v["grid"]["speed"]["values"] = serde_json::json!([2000]);
-        v["grid"]["friction"] = serde_json::json!([0.1]);
-        v["grid"]["coating"] = serde_json::json!({"young": {"scale": [1.0, 1e6]}});
-    });
+    let spec = small_coated(
+        &dir,
+        "spec",
+        serde_json::json!({"young": {"scale": [1.0, 1e6]}}),
+    );
     let out = dir.join("out");
-    let (code, err) = run_to(&spec, &out);
-    assert_eq!(code, Some(1), "{err}");
-    for e in ["/grid/coating", "job 1", "coating too stiff", "time_step"] {
-        assert!(err.contains(e), "{e:?} not in {err}");
-    }
-    assert!(!out.exists(), "output written: {err}");
+    let expect = ["/grid/coating", "job 1", "coating too stiff", "time_step"];
+    assert_run_refused(&spec, &out, &expect);
     // `simulate` refuses that job the same way.
     let st = rubscan()
         .args(["simulate", "--job", "1"])
@@ -481,13 +488,11 @@ fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
     assert_eq!(st.status.code(), Some(1), "{err}");
     assert!(err.contains("coating too stiff") && !out.exists(), "{err}");
     // The nominal coating alone runs.
-    let spec = small_with(&dir, "nominal", |v| {
-        v["scenario"]["duration_s"] = serde_json::json!(0.0005);
-        v["scenario"]["load_ramp_s"] = serde_json::json!(0.0002);
-        v["grid"]["speed"]["values"] = serde_json::json!([2000]);
-        v["grid"]["friction"] = serde_json::json!([0.1]);
-        v["grid"]["coating"] = serde_json::json!({"young": {"scale": [1.0]}});
-    });
+    let spec = small_coated(
+        &dir,
+        "nominal",
+        serde_json::json!({"young": {"scale": [1.0]}}),
+    );
     let (code, err) = run_to(&spec, &out);
     assert_eq!(code, Some(0), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
