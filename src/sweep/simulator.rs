@@ -322,6 +322,7 @@ impl ModelSimulator {
     /// checked before any job runs. A job that cannot start is a spec issue at
     /// `/scenario/coating` (or `/grid/coating` when the grid varies the coating), naming the job.
     pub fn check_coating_limits(&self, jobs: &[Job]) -> Result<(), SpecError> {
+        // The stiffest sets the step's limit, the thickest the tips' clearance offset.
         let keys: [fn(&CoatingMaterial) -> f64; 2] = [|m| m.young / m.thickness, |m| m.thickness];
         let mut extreme: Vec<(&Job, f64, usize)> = Vec::new();
         for job in jobs {
@@ -340,6 +341,8 @@ impl ModelSimulator {
                 }
             }
         }
+        // A speed's two entries were pushed together and stay adjacent: this drops a job that
+        // is both the stiffest and the thickest.
         extreme.dedup_by_key(|(j, _, _)| j.index);
         for (job, _, _) in extreme {
             let (case, casing, _) = self
