@@ -937,6 +937,17 @@ mod tests {
         }
     }
 
+    /// Three nodes 0.29 m from the axis, inside [`cylinder`]: node `k` at the angle `theta(k)`
+    /// (rad) and z = 0.02 + 0.03 k (m).
+    fn three_nodes(theta: impl Fn(usize) -> f64) -> Vec<Vector3<f64>> {
+        (0..3)
+            .map(|k| {
+                let th = theta(k);
+                Vector3::new(0.29 * th.cos(), 0.29 * th.sin(), 0.02 + 0.03 * k as f64)
+            })
+            .collect()
+    }
+
     #[test]
     fn warm_starts_follow_the_angle_swept_by_the_node() {
         // Nodes sweeping 0.02 rad per step (0.08 patch lengths) inside a cylinder whose sectors
@@ -956,13 +967,8 @@ mod tests {
             let mut plain = vec![Projection::default(); 3];
             // Iterations of [the second projection, later ones] × [GapBounds, plain].
             let mut iterations = [[0; 2]; 2];
-            let at = |step: usize, twist: f64| -> Vec<Vector3<f64>> {
-                (0..3)
-                    .map(|k| {
-                        let th = 0.02 * step as f64 + 2.0 * k as f64 + twist;
-                        Vector3::new(0.29 * th.cos(), 0.29 * th.sin(), 0.02 + 0.03 * k as f64)
-                    })
-                    .collect()
+            let at = |step: usize, twist: f64| {
+                three_nodes(|k| 0.02 * step as f64 + 2.0 * k as f64 + twist)
             };
             for step in 0..50 {
                 let xs = at(step, 0.0);
@@ -1023,12 +1029,7 @@ mod tests {
         let mut out = vec![Projection::default(); 3];
         for step in 0..40 {
             let s = step as f64;
-            let xs: Vec<Vector3<f64>> = (0..3)
-                .map(|k| {
-                    let th = 0.002 * s + 1e-5 * s * s + 2.0 * k as f64;
-                    Vector3::new(0.29 * th.cos(), 0.29 * th.sin(), 0.02 + 0.03 * k as f64)
-                })
-                .collect();
+            let xs = three_nodes(|k| 0.002 * s + 1e-5 * s * s + 2.0 * k as f64);
             bounds.next_step();
             bounds
                 .project_near(
