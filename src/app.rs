@@ -293,6 +293,7 @@ pub fn simulate(
         "closed_contact_fraction": out.closed_contact_steps as f64 / out.n_steps.max(1) as f64,
         "max_blade_radial_m": out.max_blade_radial,
         "max_residual_penetration_m": out.max_residual_penetration,
+        "steps_over_gap_tolerance": out.steps_over_gap_tolerance,
         "loop_seconds": out.loop_seconds,
         "revolution_report": report,
         "probes": figures,
@@ -315,9 +316,11 @@ pub fn simulate(
         dir.display()
     );
     eprintln!(
-        "closed contact on {:.4} of the steps; largest residual penetration {:.3e} m",
+        "closed contact on {:.4} of the steps; largest residual penetration {:.3e} m, \
+         {} steps above the gap tolerance",
         out.closed_contact_steps as f64 / out.n_steps.max(1) as f64,
-        out.max_residual_penetration
+        out.max_residual_penetration,
+        out.steps_over_gap_tolerance
     );
     for f in figures.iter().flatten() {
         let s = &f.steady;

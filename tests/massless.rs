@@ -267,8 +267,12 @@ fn contact_correction_leaves_no_penetration_on_the_quickstart_case() {
     let out = run(Boundary::Mass, Some(2e-7), None);
     let level = peak(&out.blade_te_radial);
     let residual = out.summary.max_residual_penetration;
-    eprintln!("h = 2e-7 s: residual {residual:.3e} m, level {level:.3e} m");
+    let over = out.summary.steps_over_gap_tolerance;
+    eprintln!(
+        "h = 2e-7 s: residual {residual:.3e} m, level {level:.3e} m, {over} steps over tolerance"
+    );
     assert!(out.summary.contact_steps > 1000);
+    assert_eq!(over, 0);
     assert!(
         residual <= 1e-8 * level,
         "residual {residual:e} m, level {level:e} m"

@@ -717,6 +717,7 @@ fn rotor37_benchmark_runs_and_reports_its_figures() {
             f.residual,
             f.level
         );
+        assert_eq!(f.over_tolerance, 0, "steps above the gap tolerance");
     }
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
     assert!(rel(massless.peak_to_peak, mass.peak_to_peak) <= 0.05);
@@ -776,6 +777,7 @@ struct BenchmarkFigures {
     gap_order: f64,
     closed: f64,
     residual: f64,
+    over_tolerance: u64,
 }
 
 /// Runs `sweeps/rotor37_benchmark.json` on the ROM at `rom_path` into `out`, with a massless
@@ -815,12 +817,14 @@ fn run_benchmark(rom_path: &Path, out: &Path, massless_h: Option<f64>) -> Benchm
         gap_order: gap["steady"]["dominant_engine_order"].as_f64().unwrap(),
         closed: summary["closed_contact_fraction"].as_f64().unwrap(),
         residual: summary["max_residual_penetration_m"].as_f64().unwrap(),
+        over_tolerance: summary["steps_over_gap_tolerance"].as_u64().unwrap(),
     };
     eprintln!(
         "Rotor 37 benchmark, {} boundary ({} steps, {:.0} steps/rev, loop {:.2} s single thread, wall {wall:.1?}):\n  \
          node 1353 y: peak-to-peak over the last 5 revolutions {:.4e} m, mean over the last 20 \
          {:.4e} m, dominant {:.2} Hz = engine order {:.3}\n  node 188: max normal force {:.4e} N, \
-         min gap {:.4e} m\n  steps with a closed contact: {:.4}; largest residual penetration {:.3e} m",
+         min gap {:.4e} m\n  steps with a closed contact: {:.4}; largest residual penetration {:.3e} m \
+         ({} steps above the gap tolerance)",
         if massless_h.is_some() {
             "massless"
         } else {
@@ -837,6 +841,7 @@ fn run_benchmark(rom_path: &Path, out: &Path, massless_h: Option<f64>) -> Benchm
         gap["min"].as_f64().unwrap(),
         figures.closed,
         figures.residual,
+        figures.over_tolerance,
     );
     figures
 }

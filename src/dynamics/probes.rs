@@ -190,9 +190,14 @@ pub struct RunSummary {
     pub active_contacts: usize,
     /// Steps that end with at least one closed contact (a positive multiplier).
     pub closed_contact_steps: usize,
-    /// Largest residual penetration (m: over the sample steps on a casing surface, over
-    /// every step against imposed gaps).
+    /// Largest residual penetration after a contact correction (m, over every step). On a
+    /// casing surface box 4b measures it on every step (the corrected tips projected on the
+    /// predicted surface moved by the casing's correction under them) and sample steps
+    /// measure it again on the corrected surface itself; imposed gaps are exact on every step.
     pub max_residual_penetration: f64,
+    /// Steps whose residual penetration exceeds the gap tolerance
+    /// [`GAP_TOLERANCE`](crate::dynamics::simulate::GAP_TOLERANCE) × casing radius.
+    pub steps_over_gap_tolerance: usize,
     /// Largest |blade-tip radial displacement| (m, over every step).
     pub max_blade_radial: f64,
     /// Wall-clock time of the stepping loop (s).

@@ -29,8 +29,9 @@ pub struct Sample<'a> {
     pub blade_tangential_force: &'a [f64],
     /// Minimum predicted gap d* over all blade-tip nodes (m).
     pub min_gap: f64,
-    /// Largest residual penetration after the correction (m, ≥ 0): the corrected blade nodes
-    /// re-projected on the corrected casing surface.
+    /// Largest residual penetration after the step's correction (m, ≥ 0): box 4b's, and the
+    /// corrected blade nodes re-projected on the corrected casing surface (or their imposed
+    /// gaps).
     pub residual_penetration: f64,
     /// Work (J) the imposed rotation has done on the two structures through the contact
     /// forces since t = 0: `−Ω ∫ M_z dt`, `M_z` the contact forces' torque about the axis.

@@ -1707,11 +1707,33 @@ impl<'a> Simulation<'a> {
             self.correct_casing(next_load)?;
         }
         self.blades.place(&self.r_om);
-        // Imposed gaps are exact and cheap: their residual is checked on every step.
+        // Imposed gaps are exact and cheap: their residual is measured on every step.
         if self.sample_step || matches!(self.casing, Casing::Imposed(_)) {
             self.residual_penetration()?;
         }
+        self.check_residual()?;
         self.clock.lap(Stage::Correction);
+        Ok(())
+    }
+
+    /// This step's residual penetration (m) into the run's summary: its maximum, and a count
+    /// of the steps above the gap tolerance. A divergence when above 1e-4 of the casing
+    /// radius.
+    fn check_residual(&mut self) -> Result<(), SimError> {
+        let s = &mut self.summary;
+        s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
+        if self.residual > self.casing.gap_tolerance() {
+            s.steps_over_gap_tolerance += 1;
+        }
+        if self.residual > 1e-4 * self.casing.radius_scale().max(1e-3) {
+            return Err(SimError::Diverged {
+                time: self.t1,
+                reason: format!(
+                    "residual penetration {:.3e} m after correction",
+                    self.residual
+                ),
+            });
+        }
         Ok(())
     }
 
@@ -1808,9 +1830,8 @@ impl<'a> Simulation<'a> {
         Ok(())
     }
 
-    /// The largest residual penetration after the correction (m): the corrected candidates
-    /// re-projected on the corrected casing surface, or their imposed gaps; kept in the run's
-    /// summary. A divergence when above 1e-4 of the casing radius.
+    /// The largest residual penetration after the correction (m), exactly: the corrected
+    /// candidates re-projected on the corrected casing surface, or their imposed gaps.
     fn residual_penetration(&mut self) -> Result<(), SimError> {
         let cs = match &self.casing {
             Casing::Surface(cs) => cs,
@@ -1820,8 +1841,6 @@ impl<'a> Simulation<'a> {
                     let gap = imposed.gap(cd.node, self.t1, ub);
                     self.residual = self.residual.max(-gap);
                 }
-                let s = &mut self.summary;
-                s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
                 return Ok(());
             }
         };
@@ -1842,17 +1861,6 @@ impl<'a> Simulation<'a> {
             );
             found.map_err(projection_failed(self.t1))?;
             self.residual = self.residual.max(-p.res_proj[0].gap);
-        }
-        let s = &mut self.summary;
-        s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
-        if self.residual > 1e-4 * self.casing.radius_scale().max(1e-3) {
-            return Err(SimError::Diverged {
-                time: self.t1,
-                reason: format!(
-                    "residual penetration {:.3e} m after correction",
-                    self.residual
-                ),
-            });
         }
         Ok(())
     }
@@ -3731,6 +3739,26 @@ mod tests {
         let d = max_diff(&base.blade_le_radial, &fr.blade_le_radial);
         assert!(d <= 0.05 * s, "mu: {d:e} vs {s:e}");
         assert!(max_abs(&fr.blade_tangential_force) > 0.0);
+    }
+
+    /// Each step's residual reaches the summary: a step above the gap tolerance is counted,
+    /// and one above 1e-4 of the casing radius stops the run as diverged.
+    #[test]
+    fn residuals_above_the_tolerance_are_counted_and_a_runaway_stops_the_run() {
+        let (imp, cas) = small_pair(4);
+        let casing = CasingModel::Flexible(cas);
+        let case = lobe_case(1e-7, 0.0, KernelChoice::Fast, 1e-5);
+        let mut sim = Simulation::new(&case, &imp, &casing).unwrap();
+        let tol = sim.casing.gap_tolerance();
+        for residual in [0.5 * tol, 2.0 * tol, 0.0, 1.5 * tol] {
+            sim.residual = residual;
+            sim.check_residual().unwrap();
+        }
+        assert_eq!(sim.summary.steps_over_gap_tolerance, 2);
+        assert_eq!(sim.summary.max_residual_penetration, 2.0 * tol);
+        sim.residual = 2e-4 * sim.casing.radius_scale();
+        let err = sim.check_residual().unwrap_err();
+        assert!(matches!(err, SimError::Diverged { .. }), "{err}");
     }
 
     /// At the paper's resolution (h = 1e-7 s) the residual penetration after correction is

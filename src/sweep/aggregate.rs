@@ -104,6 +104,7 @@ impl JobAggregator {
             fourier_peaks,
             strain_energy_per_nd_j,
             residual_penetration_m: summary.max_residual_penetration,
+            steps_over_gap_tolerance: Some(summary.steps_over_gap_tolerance as u64),
             critical_speed: None,
             spectrum,
         })

@@ -183,8 +183,12 @@ pub struct JobResult {
     pub fourier_peaks: Vec<FourierPeak>,
     /// Strain energy per nodal diameter k = 0..=N/2 (J) (paper eqs. 20–22).
     pub strain_energy_per_nd_j: Vec<f64>,
-    /// Largest penetration left at the end of the simulation (m, ≥ 0).
+    /// Largest penetration left after a contact correction, over every step (m, ≥ 0).
     pub residual_penetration_m: f64,
+    /// Steps whose residual penetration exceeds the contact's gap tolerance (`None` in a
+    /// record written before the count existed).
+    #[serde(default)]
+    pub steps_over_gap_tolerance: Option<u64>,
     /// Nearest critical speed, if the criterion was evaluated.
     pub critical_speed: Option<CriticalSpeed>,
     /// Full amplitude spectrum (for interaction maps), if kept.

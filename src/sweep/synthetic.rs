@@ -148,6 +148,7 @@ impl SyntheticSimulator {
             fourier_peaks,
             strain_energy_per_nd_j,
             residual_penetration_m: 0.0,
+            steps_over_gap_tolerance: Some(0),
             critical_speed: Some(CriticalSpeed {
                 speed_rad_s: self.critical_speed_rad_s,
                 nodal_diameter: lobes,

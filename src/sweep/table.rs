@@ -125,7 +125,12 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
     (
         "residual_penetration_m",
         "m",
-        "largest penetration left at the end",
+        "largest penetration left after a contact correction, over every step",
+    ),
+    (
+        "steps_over_gap_tolerance",
+        "",
+        "steps whose residual penetration exceeds the gap tolerance",
     ),
     (
         "critical_speed_rad_s",
@@ -295,6 +300,9 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
             .map(|x| x.strain_energy_per_nd_j.as_slice())
     })));
     cols.push(res(|r| Some(r.residual_penetration_m)));
+    cols.push(Arc::new(UInt64Array::from_iter(rows.iter().map(
+        |(_, r)| r.result.as_ref().and_then(|x| x.steps_over_gap_tolerance),
+    ))));
     cols.push(res(|r| r.critical_speed.map(|c| c.speed_rad_s)));
     let mut nd = UInt32Builder::new();
     for (_, r) in &rows {
@@ -428,6 +436,11 @@ fn records_of_batch(b: &RecordBatch) -> Result<Vec<(usize, JobRecord)>> {
     let peaks = column::<ListArray>(b, "fourier_peaks")?;
     let energy = column::<ListArray>(b, "strain_energy_per_nd_j")?;
     let residual = f("residual_penetration_m")?;
+    // Absent from tables written before the count existed.
+    let over_tolerance = b
+        .column_by_name("steps_over_gap_tolerance")
+        .map(|_| column::<UInt64Array>(b, "steps_over_gap_tolerance"))
+        .transpose()?;
     let crit_speed = f("critical_speed_rad_s")?;
     let crit_nd = column::<UInt32Array>(b, "critical_nodal_diameter")?;
     let crit_compat = f("critical_compatibility")?;
@@ -458,6 +471,7 @@ fn records_of_batch(b: &RecordBatch) -> Result<Vec<(usize, JobRecord)>> {
                         peaks,
                         energy,
                         residual,
+                        over_tolerance,
                         crit: (crit_speed, crit_nd, crit_compat),
                         spectrum: (df, spectrum),
                     },
@@ -498,6 +512,7 @@ struct RowColumns<'a> {
     peaks: &'a ListArray,
     energy: &'a ListArray,
     residual: &'a Float64Array,
+    over_tolerance: Option<&'a UInt64Array>,
     crit: (&'a Float64Array, &'a UInt32Array, &'a Float64Array),
     spectrum: (&'a Float64Array, &'a ListArray),
 }
@@ -569,6 +584,9 @@ fn result_of_row(i: usize, c: &RowColumns<'_>) -> Result<crate::sweep::JobResult
         fourier_peaks,
         strain_energy_per_nd_j: f64_list(c.energy, i, "strain_energy_per_nd_j")?,
         residual_penetration_m: need(c.residual, "residual_penetration_m")?,
+        steps_over_gap_tolerance: c
+            .over_tolerance
+            .and_then(|a| a.is_valid(i).then(|| a.value(i))),
         critical_speed,
         spectrum,
     })
@@ -638,6 +656,7 @@ mod tests {
             }],
             strain_energy_per_nd_j: vec![1.0, 1e-20, 0.3],
             residual_penetration_m: 1e-13,
+            steps_over_gap_tolerance: Some(3),
             critical_speed: Some(CriticalSpeed {
                 speed_rad_s: 6891.0,
                 nodal_diameter: 5,
@@ -697,6 +716,18 @@ mod tests {
         cut.remove_column(batch.schema().index_of("strain_energy_per_nd_j").unwrap());
         let err = records_of_batch(&cut).unwrap_err().to_string();
         assert!(err.contains("strain_energy_per_nd_j"), "{err}");
+        // A table from before the residual count reads back with the count unknown.
+        let mut old = batch.clone();
+        old.remove_column(batch.schema().index_of("steps_over_gap_tolerance").unwrap());
+        let read = records_of_batch(&old).unwrap();
+        assert_eq!(
+            read[0].1.result.as_ref().unwrap().steps_over_gap_tolerance,
+            None
+        );
+        assert_eq!(
+            rows[0].1.result.as_ref().unwrap().steps_over_gap_tolerance,
+            Some(3)
+        );
         std::fs::write(&path, b"not parquet").unwrap();
         let err = format!("{:#}", read_records(&path).unwrap_err());
         assert!(err.contains("results.parquet"), "{err}");
