@@ -247,7 +247,7 @@ fn parquet_reads_back_with_documented_columns_and_failures() {
     for f in schema.fields() {
         let dt = f.data_type();
         let ok = match f.name().as_str() {
-            "job_index" => dt == &DataType::UInt64,
+            "job_index" | "steps_over_gap_tolerance" => dt == &DataType::UInt64,
             "job_id" | "status" | "reason" => dt == &DataType::Utf8,
             "critical_nodal_diameter" => dt == &DataType::UInt32,
             "strain_energy_per_nd_j" | "spectrum_amplitude_m" => f64_list(dt),
