@@ -206,6 +206,31 @@ mod tests {
         );
     }
 
+    /// 45 fixed-interface modes per nodal diameter build: on nodal diameter 0 their Krylov
+    /// space outgrows twelve blocks. The richer basis contains the default one, so no ROM
+    /// frequency rises (Rayleigh–Ritz).
+    #[test]
+    fn the_impeller_builds_with_45_modes_per_diameter() {
+        let few = build_impeller(&ImpellerSpec::default()).unwrap();
+        let spec = ImpellerSpec {
+            modes_per_diameter: 45,
+            ..ImpellerSpec::default()
+        };
+        let many = build_impeller(&spec).unwrap();
+        assert_eq!(many.harmonics[0].n_modes, few.harmonics[0].n_modes + 35);
+        for (a, b) in few.modal_data.iter().zip(&many.modal_data) {
+            for (fa, fb) in a.frequencies.iter().zip(&b.frequencies) {
+                for (x, y) in fa.iter().zip(fb) {
+                    assert!(
+                        *y <= x * (1.0 + 1e-9),
+                        "ND {}: {y} Hz > {x} Hz",
+                        a.nodal_diameter
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn small_casing_builds_and_validates() {
         let mut spec = CasingSpec::default();

@@ -495,8 +495,19 @@ fn block_size(n_pairs: usize) -> usize {
     n_pairs + 14
 }
 
-/// The largest Krylov space, in blocks: the memory bound `n × 12 p` of the basis.
-const MAX_BLOCKS: usize = 12;
+/// The Krylov space may always grow to this many blocks.
+const MIN_BLOCKS: usize = 12;
+
+/// Memory bound of the Krylov basis and its image under the operator (bytes): beyond
+/// [`MIN_BLOCKS`] blocks, the space grows while both fit.
+const MAX_BASIS_BYTES: usize = 512 << 20;
+
+/// The largest Krylov space (columns) for order `n` and block size `p`: [`MIN_BLOCKS`] blocks,
+/// more while the basis and its image fit in [`MAX_BASIS_BYTES`], never more than `n`.
+fn max_basis<T>(n: usize, p: usize) -> usize {
+    let fit = MAX_BASIS_BYTES / (2 * n * std::mem::size_of::<T>()).max(1);
+    n.min((MIN_BLOCKS * p).max(fit))
+}
 
 /// Lowest `n_pairs` eigenpairs of the pencil (see the module documentation for the method
 /// and the convergence criterion). `start` (permuted space, as returned by
@@ -590,7 +601,7 @@ fn block_krylov<T: Scalar>(
         mass: pencil.mass,
     };
     let p = block_size(n_pairs).min(n);
-    let max_dim = n.min(MAX_BLOCKS * p);
+    let max_dim = max_basis::<T>(n, p);
     let mut q = Mat::<T>::zeros(n, max_dim);
     let mut aq = Mat::<T>::zeros(n, max_dim);
     let mut h = Mat::<T>::zeros(max_dim, max_dim);
