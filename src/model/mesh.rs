@@ -516,6 +516,12 @@ fn check_contact_spacing(elements_meridian: usize, contact_nodes: usize) -> Resu
     Ok(())
 }
 
+/// Whether a default-zero field is left out when written (the model's hash, and so the job
+/// ids of existing specs, stay as they were).
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
 fn check_len(field: &'static str, v: f64) -> Result<(), MeshError> {
     if !(v.is_finite() && v > 0.0) {
         return Err(bad(field, format!("{v} m must be finite and > 0")));
@@ -669,6 +675,13 @@ pub struct ImpellerGeometry {
     pub back: Meridian,
     /// Blade thickness (circumferential), m.
     pub blade_thickness: f64,
+    /// Lean of the blade (degrees): its span line, from root to tip, turns by this angle out
+    /// of the meridian plane, toward +θ (the direction of rotation for Ω > 0) when positive.
+    /// 0 (default): radial blades, whose mid-surface is a meridian plane. A leaned blade bends
+    /// under a circumferential tip force (friction) along its normal, which has a component
+    /// across the tip clearance.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub blade_lean_deg: f64,
     /// Elements along the meridian (blade and disk; a multiple of contact_nodes − 1).
     pub elements_meridian: usize,
     /// Elements along the blade span (hub → tip).
@@ -699,6 +712,7 @@ impl Default for ImpellerGeometry {
                 length: 0.069,
             },
             blade_thickness: 2.5e-3,
+            blade_lean_deg: 0.0,
             elements_meridian: 8,
             elements_span: 6,
             elements_disk_depth: 2,
@@ -787,7 +801,53 @@ impl ImpellerGeometry {
                 ),
             ));
         }
+        self.check_lean()?;
         self.material.validate()
+    }
+
+    /// A lean of at most 45° that keeps the blade inside its sector along the whole tip (the
+    /// blade's thickness checked already).
+    fn check_lean(&self) -> Result<(), MeshError> {
+        let lean = self.blade_lean_deg;
+        if !(lean.is_finite() && lean.abs() <= 45.0) {
+            return Err(bad(
+                "blade_lean_deg",
+                format!("{lean}° must be finite and within ±45°"),
+            ));
+        }
+        if lean == 0.0 {
+            return Ok(());
+        }
+        let alpha = 2.0 * std::f64::consts::PI / self.n_blades as f64;
+        for i in 0..=32 {
+            let phi = i as f64 / 32.0 * std::f64::consts::FRAC_PI_2;
+            let r = self.tip(phi)[0];
+            let reach = self.lean_angle(phi, 1.0).abs() + 0.5 * self.blade_thickness / r;
+            if reach >= 0.5 * alpha {
+                return Err(bad(
+                    "blade_lean_deg",
+                    format!(
+                        "{lean}° takes the blade tip out of its sector at r = {r:.4} m \
+                         ({reach:.3} rad from the root's meridian plane, half-sector {:.3} rad)",
+                        0.5 * alpha
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Angle (rad) about the axis between the blade's point at meridian position φ and span
+    /// fraction `span` (0 root, 1 tip) and its root: the lean's circumferential offset,
+    /// `tan(lean) × (distance from the root along the span)`, over the point's radius.
+    fn lean_angle(&self, phi: f64, span: f64) -> f64 {
+        if self.blade_lean_deg == 0.0 {
+            return 0.0;
+        }
+        let (h, t) = (self.hub.point(phi), self.tip(phi));
+        let r = h[0] + span * (t[0] - h[0]);
+        let along = span * (t[0] - h[0]).hypot(t[1] - h[1]);
+        self.blade_lean_deg.to_radians().tan() * along / r
     }
 
     /// Blade tip point (r, z), m, at φ: the shroud offset by the clearance along its flow normal.
@@ -805,7 +865,7 @@ impl ImpellerGeometry {
         let phi = s0 * std::f64::consts::FRAC_PI_2;
         let (h, t) = (self.hub.point(phi), self.tip(phi));
         let (r, z) = (h[0] + s2 * (t[0] - h[0]), h[1] + s2 * (t[1] - h[1]));
-        let th = 0.5 * alpha + (s1 - 0.5) * self.blade_thickness / r;
+        let th = 0.5 * alpha + self.lean_angle(phi, s2) + (s1 - 0.5) * self.blade_thickness / r;
         [r * th.cos(), r * th.sin(), z]
     }
 
@@ -933,6 +993,56 @@ mod tests {
 
     fn theta(p: [f64; 3]) -> f64 {
         p[1].atan2(p[0])
+    }
+
+    /// A leaned blade keeps its root and its tip's meridian position; its tip nodes turn
+    /// about the axis by `tan(lean) × span length / r` (toward +θ for a positive lean). A
+    /// lean beyond ±45° or out of the sector is refused, naming the field; no lean leaves the
+    /// mesh as it was and the field unwritten.
+    #[test]
+    fn a_leaned_blade_turns_its_tip_about_the_axis() {
+        let radial = ImpellerGeometry::default();
+        let leaned = ImpellerGeometry {
+            blade_lean_deg: -20.0,
+            ..radial.clone()
+        };
+        let (a, b) = (radial.build().unwrap(), leaned.build().unwrap());
+        assert_eq!(a.nodes.len(), b.nodes.len());
+        let last = (radial.contact_nodes - 1) as f64;
+        for (c, (&na, &nb)) in a.contact_nodes.iter().zip(&b.contact_nodes).enumerate() {
+            let (p, q) = (a.nodes[na], b.nodes[nb]);
+            let phi = c as f64 / last * FRAC_PI_2;
+            let (h, t) = (radial.hub.point(phi), radial.tip(phi));
+            let span = (t[0] - h[0]).hypot(t[1] - h[1]);
+            let turn = theta(q) - theta(p);
+            let expected = -(20f64.to_radians().tan()) * span / t[0];
+            assert!(
+                (turn - expected).abs() < 1e-12,
+                "tip {c}: {turn} vs {expected}"
+            );
+            assert!((p[0].hypot(p[1]) - q[0].hypot(q[1])).abs() < 1e-12 && p[2] == q[2]);
+        }
+        let root = |m: &SectorMesh| {
+            m.clamped_nodes
+                .iter()
+                .map(|&n| m.nodes[n])
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(root(&a), root(&b));
+        for lean in [50.0, f64::NAN, 44.0] {
+            let bad = ImpellerGeometry {
+                blade_lean_deg: lean,
+                ..radial.clone()
+            };
+            let err = bad.build().unwrap_err().to_string();
+            assert!(err.contains("blade_lean_deg"), "{lean}: {err}");
+        }
+        let json = serde_json::to_value(&radial).unwrap();
+        assert!(json.get("blade_lean_deg").is_none());
+        assert_eq!(
+            serde_json::to_value(&leaned).unwrap()["blade_lean_deg"],
+            -20.0
+        );
     }
 
     #[test]

@@ -1507,6 +1507,7 @@ mod tests {
             beta: 1e-6,
         };
         casing.damping = impeller.damping;
+        impeller.geometry.blade_lean_deg = -20.0;
         b.models.impeller = ModelSource::Builtin(Box::new(impeller));
         b.models.casing = CasingSource::Builtin(Box::new(casing));
         b.grid.speed = SpeedAxis {
