@@ -72,6 +72,21 @@ fn issue(path: impl Into<String>, reason: impl Into<String>) -> SpecIssue {
     }
 }
 
+/// An error and its causes, each said once: the model errors name their source in their own
+/// message, so the chain would repeat it.
+fn causes(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = String::new();
+    for message in std::iter::successors(Some(e), |e| e.source()).map(ToString::to_string) {
+        if !text.contains(&message) {
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&message);
+        }
+    }
+    text
+}
+
 /// Validates `spec` as a whole and resolves its models; every problem is returned at once
 /// with its JSON pointer. Static checks ([`SweepSpec::validate`]) run first and stop before
 /// any model is built or loaded.
@@ -81,18 +96,18 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
     let impeller = match &spec.models.impeller {
         ModelSource::Builtin(b) => model_cache::impeller_rom(b)
             .map(|rom| (rom, Some(b.geometry.tip_clearance)))
-            .map_err(|e| issue("/models/impeller/builtin", format!("{e:#}"))),
+            .map_err(|e| issue("/models/impeller/builtin", causes(e.as_ref()))),
         ModelSource::Rom(p) => rom_file::load(p)
             .map(|rom| (rom, None))
-            .map_err(|e| issue("/models/impeller/rom", format!("{e:#}"))),
+            .map_err(|e| issue("/models/impeller/rom", causes(&e))),
     };
     let casing = match &spec.models.casing {
         CasingSource::Builtin(b) => model_cache::casing_rom(b)
             .map(ResolvedCasing::Flexible)
-            .map_err(|e| issue("/models/casing/builtin", format!("{e:#}"))),
+            .map_err(|e| issue("/models/casing/builtin", causes(e.as_ref()))),
         CasingSource::Rom(p) => rom_file::load(p)
             .map(ResolvedCasing::Flexible)
-            .map_err(|e| issue("/models/casing/rom", format!("{e:#}"))),
+            .map_err(|e| issue("/models/casing/rom", causes(&e))),
         CasingSource::Rigid(r) => Ok(ResolvedCasing::Rigid(r.clone())),
         CasingSource::ImposedGap(g) => Ok(ResolvedCasing::ImposedGap(g.clone())),
     };
@@ -286,6 +301,24 @@ fn check_gap_directions(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A model that cannot be built is refused at its pointer, its reason said once (each
+    /// layer of a model error names its source, and the chain must not repeat it).
+    #[test]
+    fn a_bad_built_in_geometry_is_named_once() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/quickstart.json");
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        v["models"]["impeller"]["builtin"] =
+            serde_json::json!({"geometry": {"blade_thickness": 0.5}});
+        let spec = crate::sweep::parse_spec(&v.to_string()).unwrap();
+        let Err(err) = resolve(&spec) else {
+            panic!("a 0.5 m blade was accepted")
+        };
+        let err = err.to_string();
+        assert!(err.contains("/models/impeller/builtin"), "{err}");
+        assert_eq!(err.matches("blade_thickness").count(), 1, "{err}");
+    }
 
     #[test]
     fn speed_range_is_the_tabulated_span_when_k_depends_on_omega() {
