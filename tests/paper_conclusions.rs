@@ -52,15 +52,20 @@ fn run_all(spec: &Value) -> Vec<Run> {
         .collect()
 }
 
-/// Case study 1 shortened to 20 ms, with the grid replaced by `friction` × `scale` (E and K
-/// scaled together, as in the shipped spec).
-fn case_study_1(friction: &[f64], scale: &[f64]) -> Vec<Run> {
+/// The spec of case study 1 shortened to 20 ms, with the grid replaced by `friction` ×
+/// `scale` (E and K scaled together, as in the shipped spec).
+fn case_study_1_spec(friction: &[f64], scale: &[f64]) -> Value {
     let mut v = shipped_spec("case_study_1");
     v["scenario"]["duration_s"] = 0.02.into();
     v["grid"]["friction"] = friction.into();
     v["grid"]["coating"]["young"]["scale"] = scale.into();
     v["grid"]["coating"]["hardening"]["scale"] = scale.into();
-    run_all(&v)
+    v
+}
+
+/// The jobs of [`case_study_1_spec`], run.
+fn case_study_1(friction: &[f64], scale: &[f64]) -> Vec<Run> {
+    run_all(&case_study_1_spec(friction, scale))
 }
 
 /// The nominal coating at μ = 0, 0.15, 0.3 (shared by the friction and strain-energy tests).
@@ -190,11 +195,7 @@ fn lower_friction_wears_more() {
 #[test]
 fn the_friction_trend_of_the_wear_follows_the_blade_lean() {
     for lean in [-20.0, 20.0] {
-        let mut v = shipped_spec("case_study_1");
-        v["scenario"]["duration_s"] = 0.02.into();
-        v["grid"]["friction"] = [0.0, 0.15, 0.3][..].into();
-        v["grid"]["coating"]["young"]["scale"] = [1.0][..].into();
-        v["grid"]["coating"]["hardening"]["scale"] = [1.0][..].into();
+        let mut v = case_study_1_spec(&[0.0, 0.15, 0.3], &[1.0]);
         v["models"]["impeller"]["builtin"] =
             serde_json::json!({"geometry": {"blade_lean_deg": lean}});
         let worn: Vec<f64> = run_all(&v).iter().map(worn_volume).collect();

@@ -841,9 +841,6 @@ impl ImpellerGeometry {
     /// fraction `span` (0 root, 1 tip) and its root: the lean's circumferential offset,
     /// `tan(lean) × (distance from the root along the span)`, over the point's radius.
     fn lean_angle(&self, phi: f64, span: f64) -> f64 {
-        if self.blade_lean_deg == 0.0 {
-            return 0.0;
-        }
         let (h, t) = (self.hub.point(phi), self.tip(phi));
         let r = h[0] + span * (t[0] - h[0]);
         let along = span * (t[0] - h[0]).hypot(t[1] - h[1]);

@@ -341,9 +341,9 @@ impl ModelSimulator {
                 }
             }
         }
-        // A speed's two entries were pushed together and stay adjacent: this drops a job that
-        // is both the stiffest and the thickest.
-        extreme.dedup_by_key(|(j, _, _)| j.index);
+        // A job both the stiffest and the thickest is set up once.
+        let mut seen = std::collections::BTreeSet::new();
+        extreme.retain(|(j, _, _)| seen.insert(j.index));
         for (job, _, _) in extreme {
             let (case, casing, _) = self
                 .case_for_job(job)
