@@ -470,6 +470,13 @@ fn read_recovery(
 mod tests {
     use super::*;
 
+    /// The error of reading `rom`'s bytes back, as a file named `name`.
+    fn error_reading(rom: &CyclicRom, name: &str) -> String {
+        from_bytes(&to_bytes(rom).unwrap(), Path::new(name))
+            .unwrap_err()
+            .to_string()
+    }
+
     /// A 4-sector ROM with a complex harmonic (k = 1) and modal data.
     fn sample_rom() -> CyclicRom {
         let n_c = 2;
@@ -607,9 +614,7 @@ mod tests {
         // A recovery block of the wrong width is named.
         let mut bad = rom.clone();
         bad.recovery.rows[1].re = DMatrix::zeros(6, 3);
-        let err = from_bytes(&to_bytes(&bad).unwrap(), Path::new("w.rom"))
-            .unwrap_err()
-            .to_string();
+        let err = error_reading(&bad, "w.rom");
         assert!(
             err.starts_with("w.rom:") && err.contains("recovery.1.re"),
             "{err}"
@@ -654,23 +659,17 @@ mod tests {
     fn corrupted_contents_are_rejected_with_clear_errors() {
         let mut rom = sample_rom();
         rom.harmonics[1].mass.re[(0, 1)] = f64::NAN;
-        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("nan.rom"))
-            .unwrap_err()
-            .to_string();
+        let err = error_reading(&rom, "nan.rom");
         assert!(err.contains("non-finite") && err.contains("mass"), "{err}");
 
         let mut rom = sample_rom();
         rom.harmonics[2].mass.re[(0, 3)] = 1.0;
-        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("asym.rom"))
-            .unwrap_err()
-            .to_string();
+        let err = error_reading(&rom, "asym.rom");
         assert!(err.contains("not Hermitian"), "{err}");
 
         let mut rom = sample_rom();
         rom.harmonics[0].stiffness[0] = HermitianMatrix::real(DMatrix::identity(3, 3));
-        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("shape.rom"))
-            .unwrap_err()
-            .to_string();
+        let err = error_reading(&rom, "shape.rom");
         assert!(
             err.contains("harmonic.0.k0.re") && err.contains("shape"),
             "{err}"
@@ -771,9 +770,7 @@ mod tests {
         }
         rom.modal_data[0].shapes_re = vec![vec![vec![]; 2]; 2];
         rom.modal_data[0].shapes_im = vec![vec![vec![]; 2]; 2];
-        let err = from_bytes(&to_bytes(&rom).unwrap(), Path::new("nc.rom"))
-            .unwrap_err()
-            .to_string();
+        let err = error_reading(&rom, "nc.rom");
         assert!(
             err.starts_with("nc.rom:") && err.contains("contact"),
             "{err}"
