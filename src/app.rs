@@ -24,8 +24,8 @@ use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::slurm;
 use crate::sweep::status::status as sweep_status;
 use crate::sweep::{
-    MergeSummary, ResolvedSweep, RunOptions, RunSummary, SpecError, default_output_dir,
-    load_records, load_spec, merge, parse_shard, plan, resolve, run_sweep,
+    MergeSummary, Plan, ResolvedSweep, RunOptions, RunSummary, SpecError, SweepSpec,
+    default_output_dir, load_records, load_spec, merge, parse_shard, plan, resolve, run_sweep,
 };
 
 use crate::dynamics::structure::Structure;
@@ -107,6 +107,18 @@ impl AppError {
 /// anything runs or is written.
 pub(crate) fn load_resolved(spec_path: &Path) -> Result<ResolvedSweep, SpecError> {
     resolve(&load_spec(spec_path)?)
+}
+
+/// The spec at `spec_path` checked as a whole, as `plan`, `run` and `slurm` check it before
+/// anything runs or is written: validated with its models, planned, and every job's coating
+/// within the limits of the explicit scheme ([`ModelSimulator::check_coating_limits`]).
+fn checked_sweep(spec_path: &Path) -> Result<(SweepSpec, ModelSimulator, Plan), AppError> {
+    let resolved = load_resolved(spec_path)?;
+    let spec = resolved.spec.clone();
+    let plan = plan(&spec)?;
+    let sim = ModelSimulator::from_resolved(resolved)?;
+    sim.check_coating_limits(&plan.jobs)?;
+    Ok((spec, sim, plan))
 }
 
 /// `rubscan model info`: a human-readable summary of a ROM file (sizes, frequencies per
@@ -344,8 +356,7 @@ pub fn simulate(
 /// `rubscan plan`: the jobs of a sweep with their resolved parameters and the work estimate,
 /// after validating the whole spec with its models.
 pub fn plan_text(spec_path: &Path) -> Result<String, AppError> {
-    let spec = load_resolved(spec_path)?.spec;
-    let plan = plan(&spec)?;
+    let (_, _, plan) = checked_sweep(spec_path)?;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -413,8 +424,7 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
         Some(n) => n,
         None => slurm::threads_from_env(&env)?.unwrap_or(0),
     };
-    let resolved = load_resolved(spec_path)?;
-    let spec = resolved.spec.clone();
+    let (spec, mut sim, plan) = checked_sweep(spec_path)?;
     let base = args
         .output
         .clone()
@@ -435,17 +445,14 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     opts.progress = std::io::stderr().is_terminal();
     opts.retry_failed = args.retry_failed;
     cancel_on_ctrl_c(opts.cancel.clone());
-    let mut sim = ModelSimulator::from_resolved(resolved)?;
-    let jobs = plan(&spec)?.jobs;
-    sim.check_coating_limits(&jobs)?;
-    if let Some(note) = sim.supercritical_note(&jobs)? {
+    if let Some(note) = sim.supercritical_note(&plan.jobs)? {
         eprintln!("[sweep] note: {note}");
     }
     if args.timeseries {
         sim = sim.with_timeseries(opts.output_dir.join("timeseries"));
     }
     let summary = run_sweep(&spec, &opts, &sim)?;
-    let records = load_records(&opts.output_dir, plan(&spec)?.jobs.iter());
+    let records = load_records(&opts.output_dir, plan.jobs.iter());
     let lobes = report::lobes(&spec);
     let orders: Vec<u32> = (1..=8).map(|i| i * lobes).collect();
     let plots =
@@ -588,7 +595,7 @@ pub struct SlurmArgs {
 /// beside the output directory, and prints the sbatch commands, or submits them and prints
 /// the job ids.
 pub fn slurm(spec_path: &Path, args: &SlurmArgs) -> Result<String, AppError> {
-    let spec = load_resolved(spec_path)?.spec;
+    let (spec, _, _) = checked_sweep(spec_path)?;
     let absolute = |p: &Path| {
         std::path::absolute(p).with_context(|| format!("cannot make {} absolute", p.display()))
     };

@@ -306,7 +306,7 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
         String::from_utf8_lossy(&warm.stderr)
     );
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &[&str]); 12] = [
+    let cases: [(&str, Edit, &[&str]); 16] = [
         (
             "probe_typo",
             |v| v["scenario"]["probes"] = serde_json::json!([{"nod": 5, "quantity": "gap"}]),
@@ -393,6 +393,32 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
             },
             &["/scenario/lobes", "flexible casing only"],
         ),
+        (
+            // 10⁹ jobs: refused before any of them is allocated.
+            "grid_too_large",
+            |v| {
+                let many: Vec<f64> = (0..1000).map(|i| 1e-4 * f64::from(i)).collect();
+                v["grid"]["friction"] = serde_json::json!(many);
+                v["grid"]["clearance_m"] = serde_json::json!(many[1..].to_vec());
+                v["grid"]["coating"] = serde_json::json!({"young": {"scale": many[1..]}});
+            },
+            &["/grid", "jobs, more than the 100000"],
+        ),
+        (
+            "coating_elements_too_many",
+            |v| v["scenario"]["coating"] = serde_json::json!({"eta": 4_000_000_000u64}),
+            &["/scenario/coating/eta", "maximum of 1000000"],
+        ),
+        (
+            "step_far_too_small",
+            |v| v["numerics"]["time_step_s"] = serde_json::json!(1e-300),
+            &["/numerics/time_step_s", "steps per job", "1e9"],
+        ),
+        (
+            "duration_far_too_long",
+            |v| v["scenario"]["duration_s"] = serde_json::json!(1e300),
+            &["/scenario/duration_s", "steps per job", "1e9"],
+        ),
     ];
     for (tag, edit, expect) in cases {
         let spec = small_with(&dir, tag, edit);
@@ -436,14 +462,32 @@ fn small_coated(dir: &Path, tag: &str, coating: serde_json::Value) -> PathBuf {
 }
 
 /// `rubscan run spec -o out` is refused before any job runs: exit status 1, every one of
-/// `expect` in its message, and nothing written.
+/// `expect` in its message, and nothing written; `plan` and `slurm` refuse it the same way
+/// (a plan or an array script that `run` would refuse is no plan).
 fn assert_run_refused(spec: &Path, out: &Path, expect: &[&str]) {
     let (code, err) = run_to(spec, out);
-    assert_eq!(code, Some(1), "{err}");
-    for e in expect {
-        assert!(err.contains(e), "{e:?} not in {err}");
+    let plan = rubscan().arg("plan").arg(spec).output().unwrap();
+    let slurm = rubscan()
+        .args(["slurm", "--tasks", "2", "-o"])
+        .arg(out)
+        .arg(spec)
+        .output()
+        .unwrap();
+    for (cmd, code, err) in [
+        ("run", code, err),
+        ("plan", plan.status.code(), stderr(&plan)),
+        ("slurm", slurm.status.code(), stderr(&slurm)),
+    ] {
+        assert_eq!(code, Some(1), "{cmd}: {err}");
+        for e in expect {
+            assert!(err.contains(e), "{cmd}: {e:?} not in {err}");
+        }
+        assert!(!out.exists(), "{cmd}: output written: {err}");
     }
-    assert!(!out.exists(), "output written: {err}");
+}
+
+fn stderr(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
 /// A coating so thick that the clearance to its unworn surface would take the tips off the
@@ -456,7 +500,16 @@ fn a_coating_too_thick_for_the_casing_is_refused_before_any_job_runs() {
     std::fs::create_dir_all(&dir).unwrap();
     let axis = serde_json::json!({"thickness": {"values": [0.002, 0.5]}});
     let spec = small_coated(&dir, "spec", axis);
-    let expect = ["/grid/coating", "job 1", "thickness_m", "off the casing"];
+    let expect = ["/grid/coating/thickness", "job 1", "off the casing"];
+    assert_run_refused(&spec, &dir.join("out"), &expect);
+    // The scenario's thickness, with the grid varying another property: the scenario's field.
+    let spec = small_with(&dir, "scenario", |v| {
+        v["scenario"]["duration_s"] = serde_json::json!(0.0005);
+        v["grid"]["speed"]["values"] = serde_json::json!([2000]);
+        v["scenario"]["coating"] = serde_json::json!({"thickness_m": 0.5});
+        v["grid"]["coating"] = serde_json::json!({"young": {"scale": [1.0, 2.0]}});
+    });
+    let expect = ["/scenario/coating/thickness_m", "job 0", "off the casing"];
     assert_run_refused(&spec, &dir.join("out"), &expect);
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -474,7 +527,7 @@ fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
         serde_json::json!({"young": {"scale": [1.0, 1e6]}}),
     );
     let out = dir.join("out");
-    let expect = ["/grid/coating", "job 1", "coating too stiff", "time_step"];
+    let expect = ["/grid/coating/young", "job 1", "coating too stiff", "time_step_s"];
     assert_run_refused(&spec, &out, &expect);
     // `simulate` refuses that job the same way.
     let st = rubscan()

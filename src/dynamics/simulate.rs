@@ -2939,7 +2939,7 @@ impl CoatingStage {
             if ratio.is_nan() || ratio >= 1.0 {
                 return Err(SimError::InvalidCase(format!(
                     "coating too stiff for the time step: row {} has E·A/e_abr = {k:.3e} N/m and \
-                     contact flexibility {:.3e} m/N, k·w = {ratio:.3} ≥ 1; reduce numerics.time_step \
+                     contact flexibility {:.3e} m/N, k·w = {ratio:.3} ≥ 1; reduce numerics.time_step_s \
                      (k·w ∝ h²) or the tip area, or set numerics.boundary \"massless\" (the coating \
                      force is then solved with the displacement)",
                     self.row_of[j],

@@ -164,14 +164,20 @@ pub fn build_casing(spec: &CasingSpec) -> Result<CyclicRom, BuildError> {
 
 /// Builds the impeller ROM with centrifugal stiffening `K(Ω) = K0 + Ω² K1`.
 pub fn build_impeller(spec: &ImpellerSpec) -> Result<CyclicRom, BuildError> {
-    if spec
-        .omega_grid_rad_s
-        .iter()
-        .any(|w| !w.is_finite() || *w < 0.0)
-    {
+    let grid = &spec.omega_grid_rad_s;
+    if grid.iter().any(|w| !w.is_finite() || *w < 0.0) {
         return Err(BuildError::Invalid(
             "impeller.omega_grid_rad_s: speeds must be finite and ≥ 0".into(),
         ));
+    }
+    // The Campbell data are interpolated along the grid.
+    if let Some(i) = (1..grid.len()).find(|&i| grid[i] <= grid[i - 1]) {
+        return Err(BuildError::Invalid(format!(
+            "impeller.omega_grid_rad_s: speeds must be strictly increasing, entry {i} ({} rad/s) \
+             follows {} rad/s",
+            grid[i],
+            grid[i - 1]
+        )));
     }
     let grid = spec.omega_grid_rad_s.clone();
     reduce_built_in(
@@ -204,6 +210,25 @@ mod tests {
                 .to_string()
                 .contains("modes_per_diameter")
         );
+    }
+
+    /// The Campbell data are interpolated along the speed grid: an unsorted or repeated
+    /// speed is refused before anything is built, naming the entry.
+    #[test]
+    fn an_unsorted_speed_grid_is_refused_with_its_entry() {
+        for (grid, entry) in [(vec![0.0, 1500.0, 500.0], 2), (vec![0.0, 0.0], 1)] {
+            let spec = ImpellerSpec {
+                omega_grid_rad_s: grid,
+                ..ImpellerSpec::default()
+            };
+            let err = build_impeller(&spec).unwrap_err().to_string();
+            assert!(
+                err.contains("omega_grid_rad_s")
+                    && err.contains("strictly increasing")
+                    && err.contains(&format!("entry {entry}")),
+                "{err}"
+            );
+        }
     }
 
     /// 45 fixed-interface modes per nodal diameter build: on nodal diameter 0 their Krylov

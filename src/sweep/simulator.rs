@@ -319,8 +319,9 @@ impl ModelSimulator {
     /// thickest coating at each speed of `jobs`: the explicit coating force's limit `k·w < 1`
     /// (`k = E A / e_abr`, the contact flexibility `w ∝ h²`) and a clearance offset that keeps
     /// the tips facing the casing, which a job would otherwise meet at its own start, are
-    /// checked before any job runs. A job that cannot start is a spec issue at
-    /// `/scenario/coating` (or `/grid/coating` when the grid varies the coating), naming the job.
+    /// checked before any job runs. A job that cannot start is a spec issue at the property that
+    /// made it extreme (Young's modulus or thickness, `/scenario/coating/…` or the grid's axis
+    /// when the grid sets it for the job), naming the job.
     pub fn check_coating_limits(&self, jobs: &[Job]) -> Result<(), SpecError> {
         // The stiffest sets the step's limit, the thickest the tips' clearance offset.
         let keys: [fn(&CoatingMaterial) -> f64; 2] = [|m| m.young / m.thickness, |m| m.thickness];
@@ -341,19 +342,23 @@ impl ModelSimulator {
                 }
             }
         }
-        // A job both the stiffest and the thickest is set up once.
+        // The thickest first: when they pass, the stiffest (no thicker) can fail on its
+        // stiffness only. A job both the stiffest and the thickest is set up once.
+        extreme.sort_by_key(|&(_, _, which)| std::cmp::Reverse(which));
         let mut seen = std::collections::BTreeSet::new();
         extreme.retain(|(j, _, _)| seen.insert(j.index));
-        for (job, _, _) in extreme {
+        for (job, _, which) in extreme {
             let (case, casing, _) = self
                 .case_for_job(job)
                 .map_err(|e| SpecError::one("", format!("{e:#}")))?;
             if let Err(e) = Simulation::new(&case, &self.impeller, &casing) {
-                let on_grid = job.params.coating != CoatingParams::default();
-                let path = if on_grid {
-                    "/grid/coating"
-                } else {
-                    "/scenario/coating"
+                // The property that made this job extreme, where the spec sets it for the job.
+                let c = &job.params.coating;
+                let path = match (which, c.young.is_some(), c.thickness.is_some()) {
+                    (0, true, _) => "/grid/coating/young",
+                    (0, false, _) => "/scenario/coating/young_pa",
+                    (_, _, true) => "/grid/coating/thickness",
+                    _ => "/scenario/coating/thickness_m",
                 };
                 return Err(SpecError::one(
                     path,

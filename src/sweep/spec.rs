@@ -428,6 +428,20 @@ pub fn load_spec(path: &Path) -> Result<SweepSpec, SpecError> {
 /// one and make the run a meaningless (and numerically stiff) stick–slip oscillator.
 pub const MAX_FRICTION: f64 = 2.0;
 
+/// Most jobs a sweep may expand into. Its plan, ids and table are held in memory, and a
+/// sweep of 10⁵ jobs is already 10⁴ core-hours at a few minutes per job; a grid of 10⁹ is a
+/// typo in an axis, refused before anything is allocated.
+pub const MAX_JOBS: u64 = 100_000;
+
+/// Most time steps a job may take: 10⁹ steps are about a day at the paper scale's 50–100 µs
+/// per step, 10³ times the paper's case studies; a longer job is a unit mistake in
+/// `duration_s` or `time_step_s`.
+pub const MAX_STEPS_PER_JOB: f64 = 1e9;
+
+/// Most coating elements per circumferential row η: at 10⁶ an element of a 0.2 m casing is
+/// 1.3 µm long, finer than any tip motion of a step; the rows' state grows with η.
+pub const MAX_COATING_ELEMENTS: usize = 1_000_000;
+
 /// Pushes an issue when `v` is not finite and > 0.
 fn check_positive(issues: &mut Vec<SpecIssue>, pointer: &str, v: f64, unit: &str) {
     if !(v.is_finite() && v > 0.0) {
@@ -592,6 +606,31 @@ impl SweepSpec {
             }
         }
         self.validate_zip(&mut issues);
+        let jobs = self.grid.job_count();
+        if jobs > MAX_JOBS {
+            issues.push(SpecIssue {
+                path: "/grid".into(),
+                reason: format!(
+                    "the grid expands into {} jobs, more than the {MAX_JOBS} a sweep may hold \
+                     (the product of its axis lengths, zipped axes counted once)",
+                    if jobs == u64::MAX {
+                        "over 1.8e19".into()
+                    } else {
+                        jobs.to_string()
+                    }
+                ),
+            });
+        }
+        if let Some(h) = self.numerics.time_step {
+            // A step under 1 ns would resolve modes above 100 MHz, no structure's: the step is
+            // the mistake then, else the duration.
+            let field = if h < 1e-9 {
+                "/numerics/time_step_s"
+            } else {
+                "/scenario/duration_s"
+            };
+            self.check_step_count(&mut issues, h, field);
+        }
         if let Some(limit) = self.job_time_limit_s {
             check_positive(&mut issues, "/job_time_limit_s", limit, " s");
         }
@@ -599,6 +638,22 @@ impl SweepSpec {
             Ok(())
         } else {
             Err(SpecError::Invalid(issues))
+        }
+    }
+
+    /// A job of `duration_s` at step `h` (s) takes at most [`MAX_STEPS_PER_JOB`] steps; `field`
+    /// is the pointer blamed.
+    pub fn check_step_count(&self, issues: &mut Vec<SpecIssue>, h: f64, field: &str) {
+        let steps = self.scenario.duration_s / h;
+        if h > 0.0 && steps > MAX_STEPS_PER_JOB {
+            issues.push(SpecIssue {
+                path: field.into(),
+                reason: format!(
+                    "duration_s = {:.3e} s at a step of {h:.3e} s is {steps:.3e} steps per job, \
+                     more than the {MAX_STEPS_PER_JOB:.0e} allowed (a unit mistake?)",
+                    self.scenario.duration_s
+                ),
+            });
         }
     }
 
@@ -686,10 +741,13 @@ impl SweepSpec {
             ] {
                 check_positive(issues, &format!("/scenario/coating/{field}"), v, unit);
             }
-            if c.eta == 0 {
+            if !(1..=MAX_COATING_ELEMENTS).contains(&c.eta) {
                 issues.push(SpecIssue {
                     path: "/scenario/coating/eta".into(),
-                    reason: "0 is less than the minimum of 1".into(),
+                    reason: format!(
+                        "{} elements per row: η must lie in 1..={MAX_COATING_ELEMENTS}",
+                        c.eta
+                    ),
                 });
             }
         }
@@ -975,6 +1033,25 @@ impl SpeedAxis {
 }
 
 impl Grid {
+    /// Number of jobs the grid expands into: the product of its axis lengths, zipped axes
+    /// counted once (saturating at `u64::MAX`).
+    pub fn job_count(&self) -> u64 {
+        let mut zip_seen = false;
+        AxisName::ALL
+            .iter()
+            .filter_map(|&axis| {
+                let n = self.axis_len(axis)?;
+                if self.zip.contains(&axis) {
+                    if zip_seen {
+                        return None;
+                    }
+                    zip_seen = true;
+                }
+                Some(n as u64)
+            })
+            .fold(1, u64::saturating_mul)
+    }
+
     /// Length of an axis, or `None` when the axis is absent from the grid.
     pub fn axis_len(&self, axis: AxisName) -> Option<usize> {
         let coating = |f: fn(&CoatingGrid) -> &Option<CoatingAxis>| {

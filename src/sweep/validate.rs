@@ -207,7 +207,11 @@ fn check_speeds_and_step(
             }
         }
     }
-    // The default step is below every limit by construction.
+    // The default step is below every limit by construction, so a job takes more steps
+    // than the duration over the smallest limit.
+    if let (None, Some((limit, _, _))) = (h, &worst) {
+        spec.check_step_count(issues, *limit, "/scenario/duration_s");
+    }
     if let Some((limit, omega, which)) = worst
         && let Some(h) = h
         && h >= limit
