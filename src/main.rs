@@ -50,9 +50,9 @@ enum Command {
     Run {
         /// Sweep spec (JSON).
         spec: PathBuf,
-        /// Worker threads (0 = all cores; default: SLURM_CPUS_PER_TASK in a Slurm job, else
-        /// all cores).
-        #[arg(long)]
+        /// Worker threads, at most 1024 (0 = all cores; default: SLURM_CPUS_PER_TASK in a
+        /// Slurm job, else all cores).
+        #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(0..=1024))]
         threads: Option<usize>,
         /// Run only shard i of n (jobs with index ≡ i mod n), e.g. 0/4. Default in a Slurm
         /// array task: shard (SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN) / SLURM_ARRAY_TASK_STEP

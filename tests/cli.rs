@@ -527,7 +527,12 @@ fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
         serde_json::json!({"young": {"scale": [1.0, 1e6]}}),
     );
     let out = dir.join("out");
-    let expect = ["/grid/coating/young", "job 1", "coating too stiff", "time_step_s"];
+    let expect = [
+        "/grid/coating/young",
+        "job 1",
+        "coating too stiff",
+        "time_step_s",
+    ];
     assert_run_refused(&spec, &out, &expect);
     // `simulate` refuses that job the same way.
     let st = rubscan()
@@ -559,11 +564,16 @@ fn help_documents_the_exit_status_and_bad_arguments_exit_1() {
     for line in ["Exit status", "130", "some jobs failed"] {
         assert!(text.contains(line), "{text}");
     }
-    let st = rubscan()
-        .args(["run", "--threads", "x", SMALL])
-        .output()
-        .unwrap();
-    assert_eq!(st.status.code(), Some(1));
+    // Not a number, and more threads than any machine has (spawning 10⁵ threads hung).
+    for threads in ["x", "100000"] {
+        let st = rubscan()
+            .args(["run", "--threads", threads, SMALL])
+            .output()
+            .unwrap();
+        let err = stderr(&st);
+        assert_eq!(st.status.code(), Some(1), "{err}");
+        assert!(err.contains("--threads"), "{err}");
+    }
 }
 
 /// Every record batch of a Parquet file.

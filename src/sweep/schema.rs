@@ -44,8 +44,13 @@ pub enum SpecError {
         source: std::io::Error,
     },
     /// The text is not JSON.
-    #[error("sweep spec is not valid JSON (line {line}, column {column}): {message}")]
+    #[error(
+        "sweep spec {}is not valid JSON (line {line}, column {column}): {message}",
+        file.as_ref().map(|f| format!("{} ", f.display())).unwrap_or_default()
+    )]
     Syntax {
+        /// The spec file, when the text was read from one.
+        file: Option<PathBuf>,
         /// 1-based line.
         line: usize,
         /// 1-based column.

@@ -393,6 +393,7 @@ impl fmt::Display for AxisName {
 /// Relative ROM paths are left as written; see [`SweepSpec::resolve_paths`].
 pub fn parse_spec(text: &str) -> Result<SweepSpec, SpecError> {
     let value: Value = serde_json::from_str(text).map_err(|e| SpecError::Syntax {
+        file: None,
         line: e.line(),
         column: e.column(),
         message: e.to_string(),
@@ -415,7 +416,22 @@ pub fn load_spec(path: &Path) -> Result<SweepSpec, SpecError> {
         path: path.to_path_buf(),
         source,
     })?;
-    let mut spec = parse_spec(&text)?;
+    // A byte-order mark (some Windows editors write one) is not JSON but says nothing.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let mut spec = parse_spec(text).map_err(|e| match e {
+        SpecError::Syntax {
+            line,
+            column,
+            message,
+            ..
+        } => SpecError::Syntax {
+            file: Some(path.to_path_buf()),
+            line,
+            column,
+            message,
+        },
+        e => e,
+    })?;
     if let Some(dir) = path.parent() {
         spec.resolve_paths(dir);
     }
@@ -1662,6 +1678,30 @@ mod tests {
     fn bad_json_reports_line() {
         let e = parse_spec("{\n \"name\": \"x\",\n}").unwrap_err();
         assert!(matches!(e, SpecError::Syntax { line: 3, .. }), "{e}");
+    }
+
+    /// A spec file that is not JSON is named with its line; a leading byte-order mark is
+    /// not an error.
+    #[test]
+    fn a_spec_file_that_is_not_json_is_named_and_a_byte_order_mark_is_read() {
+        let dir = std::env::temp_dir().join(format!("rubscan-bom-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let quickstart = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/quickstart.json");
+        let text = std::fs::read_to_string(quickstart).unwrap();
+        let bom = dir.join("bom.json");
+        std::fs::write(&bom, format!("\u{feff}{text}")).unwrap();
+        assert_eq!(
+            load_spec(&bom).unwrap().name,
+            load_spec(Path::new(quickstart)).unwrap().name
+        );
+        let broken = dir.join("broken.json");
+        std::fs::write(&broken, "{\n \"name\": \"x\",\n}").unwrap();
+        let e = load_spec(&broken).unwrap_err().to_string();
+        assert!(
+            e.contains(&broken.display().to_string()) && e.contains("line 3"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// The schema counts `2.0` as an integer, so the typed spec reads it as one; a number the
