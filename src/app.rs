@@ -205,18 +205,23 @@ pub(crate) fn read_model_spec(path: Option<&Path>) -> Result<ModelSpec> {
 /// spec and writes `impeller.rom` and `casing.rom` to `output`; prints timings and sizes.
 pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
     let spec = read_model_spec(spec)?;
-    for (kind, file) in [("impeller", "impeller.rom"), ("casing", "casing.rom")] {
+    // Both models are built before either is written: a bad casing leaves no impeller file.
+    let mut built = Vec::new();
+    for kind in ["impeller", "casing"] {
         let start = std::time::Instant::now();
         let (rom, cached) = match kind {
             "impeller" => model_cache::cached_rom(kind, &spec.impeller, build_impeller)?,
             _ => model_cache::cached_rom(kind, &spec.casing, build_casing)?,
         };
-        let path = output.join(file);
+        built.push((kind, rom, cached, start.elapsed()));
+    }
+    for (kind, rom, cached, elapsed) in built {
+        let path = output.join(format!("{kind}.rom"));
         rom_file::save(&rom, &path)?;
         eprintln!(
             "{kind}: {} in {:.2} s ({}), {} sectors, {} contact nodes per sector, {} assembled DOFs -> {}",
             if cached { "loaded from cache" } else { "built" },
-            start.elapsed().as_secs_f64(),
+            elapsed.as_secs_f64(),
             model_cache::cache_dir().display(),
             rom.n_sectors,
             rom.n_contact(),

@@ -758,3 +758,33 @@ fn run_notes_the_jobs_above_the_casing_critical_wave_speed() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `model build` builds both models before it writes either: a casing that cannot be built
+/// leaves no impeller file behind (exit 1, the casing's field named).
+#[test]
+fn model_build_writes_nothing_when_one_model_is_invalid() {
+    let dir = tmp("modelbuild");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("models.json");
+    let models = serde_json::json!({
+        "impeller": {"geometry": {"n_blades": 4}, "modes_per_diameter": 3},
+        "casing": {"geometry": {"n_sectors": 12, "material": {"young": -1.0, "poisson": 0.3, "density": 7800.0}}, "modes_per_diameter": 3}
+    });
+    std::fs::write(&spec, models.to_string()).unwrap();
+    let out = dir.join("out");
+    let st = rubscan()
+        .args(["model", "build"])
+        .arg(&spec)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = stderr(&st);
+    assert_eq!(st.status.code(), Some(1), "{err}");
+    assert!(err.contains("young"), "{err}");
+    assert!(
+        !out.join("impeller.rom").exists(),
+        "impeller.rom written: {err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -116,7 +116,9 @@ impl Numerics {
         if let Some(h) = self.time_step
             && !(h.is_finite() && h > 0.0)
         {
-            return Err(format!("numerics.time_step_s = {h} s must be finite and > 0"));
+            return Err(format!(
+                "numerics.time_step_s = {h} s must be finite and > 0"
+            ));
         }
         if let Some(f) = self.mode_cutoff_hz {
             if !(f.is_finite() && f > 0.0) {

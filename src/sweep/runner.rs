@@ -306,17 +306,92 @@ fn validate_shard(shard: Option<(usize, usize)>) -> Result<()> {
 /// Loads the records of `jobs` found in output directory `dir` as `(job index, record)`,
 /// in job order; jobs without a (valid) record are left out. The parameters are taken
 /// from the plan (bit-exact), not from the record's JSON.
+///
+/// A record file that exists but cannot be read (truncated, malformed, another format or
+/// job) counts as not finished, like a missing one, and is named in a warning on stderr, so
+/// that `rubscan status` and `merge` do not count it as remaining without saying why.
 pub fn load_records<'a>(
     dir: &Path,
     jobs: impl Iterator<Item = &'a Job>,
 ) -> Vec<(usize, JobRecord)> {
-    jobs.filter_map(|j| {
-        read_record(dir, &j.id).ok().flatten().map(|mut r| {
-            r.params = j.params;
-            (j.index, r)
-        })
+    let (records, unreadable) = read_records(dir, jobs);
+    for reason in unreadable {
+        eprintln!("warning: {reason}; the job counts as not finished");
+    }
+    records
+}
+
+/// [`load_records`] without the warnings: the records, and the reasons of the record files
+/// that exist but cannot be read (for callers that report them their own way).
+fn read_records<'a>(
+    dir: &Path,
+    jobs: impl Iterator<Item = &'a Job>,
+) -> (Vec<(usize, JobRecord)>, Vec<String>) {
+    let mut records = Vec::new();
+    let mut unreadable = Vec::new();
+    for j in jobs {
+        match read_record(dir, &j.id) {
+            Ok(Some(mut r)) => {
+                r.params = j.params;
+                records.push((j.index, r));
+            }
+            Ok(None) => {}
+            Err(reason) => unreadable.push(reason),
+        }
+    }
+    (records, unreadable)
+}
+
+/// How a manifest names the part of the plan its directory holds.
+fn shard_label(shard: Option<(usize, usize)>) -> String {
+    shard.map_or("the unsharded run".into(), |(i, n)| {
+        format!("shard {i}/{n}")
     })
-    .collect()
+}
+
+/// Refuses to run `spec` (shard `shard`) into `out` when that would replace finished results
+/// of another run: `out/manifest.json` names another sweep, or records another shard split or
+/// shard index (results.parquet and manifest.json are rewritten for the requested shard only,
+/// so the recorded shard's rows would vanish from them). Also refuses a manifest that exists
+/// but cannot be read, since what it holds cannot be checked. Nothing is written.
+///
+/// "Another sweep" means another sweep name. A spec changed under the same name (grid
+/// extended, scenario edited) is the same sweep evolving and still resumes into its directory,
+/// as the planner intends: its jobs keep their ids when they did not change, so finished
+/// ones are skipped, and the records of the jobs it no longer plans stay in `jobs/`.
+/// Without a manifest (a new or a seeded directory) there is nothing to check.
+pub fn check_output_dir(out: &Path, spec: &SweepSpec, shard: Option<(usize, usize)>) -> Result<()> {
+    let recorded = read_manifest_if_any(out).with_context(|| {
+        format!(
+            "{} cannot be checked before running into it (move its manifest.json away to reuse \
+             the directory)",
+            out.display()
+        )
+    })?;
+    let Some(m) = recorded else {
+        return Ok(());
+    };
+    if m.sweep != spec.name {
+        bail!(
+            "{} holds another sweep's results, those of sweep \"{}\" (its manifest.json), not of \
+             \"{}\": running there would replace its results.parquet and manifest.json; give \
+             another -o",
+            out.display(),
+            m.sweep,
+            spec.name
+        );
+    }
+    if m.shard != shard {
+        let (recorded, requested) = (shard_label(m.shard), shard_label(shard));
+        bail!(
+            "{} holds {recorded} of sweep \"{}\" (its manifest.json), not {requested} as \
+             requested: running there would replace its results.parquet and manifest.json with \
+             those of {requested} only; give {requested} its own -o",
+            out.display(),
+            m.sweep
+        );
+    }
+    Ok(())
 }
 
 /// Runs (or resumes) a sweep. Validates the spec and the options before touching the
@@ -325,6 +400,8 @@ pub fn load_records<'a>(
 /// Jobs already recorded in `<out>/jobs/` are skipped (failed ones too, unless
 /// `retry_failed`); a failing job is recorded with its reason and the sweep goes on.
 /// The results table and manifest cover the jobs of this shard finished so far.
+/// An output directory holding another sweep's or another shard's results is refused before
+/// anything is written ([`check_output_dir`]).
 pub fn run_sweep(
     spec: &SweepSpec,
     opts: &RunOptions,
@@ -340,6 +417,7 @@ pub fn run_sweep(
         .iter()
         .filter(|j| opts.shard.is_none_or(|(i, n)| j.index % n == i))
         .collect();
+    check_output_dir(out, spec, opts.shard)?;
 
     std::fs::create_dir_all(checkpoint::jobs_dir(out))
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
@@ -368,7 +446,8 @@ pub fn run_sweep(
         opts,
         started_unix_s,
     };
-    let records = load_records(out, shard_jobs.iter().copied());
+    // Unreadable records were named in the warnings above.
+    let (records, _) = read_records(out, shard_jobs.iter().copied());
     let mut early = summarise(&plan, &shard_jobs, &records, skipped, 0, false, t0, out);
     // Failed jobs about to be retried are not finished yet.
     early.unfinished = early.unfinished.max(pending.len());
@@ -417,7 +496,7 @@ pub fn run_sweep(
         return Err(e);
     }
 
-    let records = load_records(out, shard_jobs.iter().copied());
+    let (records, _) = read_records(out, shard_jobs.iter().copied());
     let cancelled = opts.cancel.load(Ordering::SeqCst);
     let ran = ran.into_inner();
     let summary = summarise(
@@ -503,21 +582,37 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest> {
     serde_json::from_str(&text).with_context(|| format!("malformed {}", path.display()))
 }
 
+/// Reads `<dir>/manifest.json` when there is one: `Ok(None)` when the file does not exist (a
+/// run not started), an error naming the file when it exists but cannot be read or parsed.
+pub fn read_manifest_if_any(dir: &Path) -> Result<Option<Manifest>> {
+    match std::fs::metadata(dir.join("manifest.json")) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        _ => read_manifest(dir).map(Some),
+    }
+}
+
 /// Merges the outputs of shard runs (each a [`run_sweep`] output directory of the same
 /// spec) into `out_dir`: job records are copied, and `results.parquet` / `manifest.json`
 /// are written for the whole plan, identical to what a single unsharded run writes.
 /// Planned jobs found in no shard, failed jobs and the shard directories at fault (not
 /// started, unfinished, with failed jobs) are listed in the summary and the manifest is
 /// marked incomplete; they do not make this function fail (`rubscan merge` then exits 2).
+///
+/// Refused before anything is written: a shard directory whose manifest.json exists but
+/// cannot be read, shards of different specs, the same directory or shard given twice, and
+/// shards of different splits.
 pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     let started_unix_s = now_unix_s();
     let t0 = Instant::now();
     if shard_dirs.is_empty() {
         bail!("merge: no shard directory given")
     }
-    // A shard that never started has no manifest: the others still name the spec.
-    let manifests: Vec<Option<Manifest>> =
-        shard_dirs.iter().map(|d| read_manifest(d).ok()).collect();
+    // A shard that never started has no manifest: the others still name the spec. A manifest
+    // that is there but unreadable could be another spec's: refused, not skipped.
+    let manifests = shard_dirs
+        .iter()
+        .map(|d| read_manifest_if_any(d).with_context(|| format!("merge: {}", d.display())))
+        .collect::<Result<Vec<Option<Manifest>>>>()?;
     let Some(manifest) = manifests.iter().flatten().next().cloned() else {
         bail!(
             "merge: none of the {} shard directories has a readable manifest.json (not started?), e.g. {}",
@@ -536,6 +631,7 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
             );
         }
     }
+    check_shard_set(shard_dirs, &manifests)?;
     let plan = plan(&manifest.spec).map_err(|e| anyhow!(e))?;
     std::fs::create_dir_all(checkpoint::jobs_dir(out_dir))
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
@@ -589,17 +685,78 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     write_json_atomic(&out_dir.join("manifest.json"), &out_manifest)
         .context("cannot write manifest.json")?;
     let failed = out_manifest.failed;
+    let mut problems = shard_problems(shard_dirs, &manifests, &plan);
+    if problems.is_empty() && !missing.is_empty() {
+        // Not expected (a shard's own count or an absent shard names them), but `merge`'s
+        // error must never list nothing.
+        problems.push(format!(
+            "{} planned jobs are in none of the given directories",
+            missing.len()
+        ));
+    }
     Ok(MergeSummary {
         planned: plan.jobs.len(),
         found: records.len(),
         missing,
         failed,
-        shard_problems: shard_problems(shard_dirs, &manifests, &plan),
+        shard_problems: problems,
         results_path,
     })
 }
 
-/// What is wrong with each shard directory of a merge (see [`MergeSummary::shard_problems`]).
+/// True when `a` and `b` name the same directory (through links or `..` when both exist).
+fn same_dir(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    }
+}
+
+/// Refuses shard directories that do not make up one plan: the same directory given twice,
+/// two directories holding the same shard, or shards of different splits (an unsharded run
+/// counts as its own split). Shards that no directory holds are not an error here: the merge
+/// writes what there is and [`shard_problems`] names them.
+fn check_shard_set(dirs: &[PathBuf], manifests: &[Option<Manifest>]) -> Result<()> {
+    for (k, d) in dirs.iter().enumerate() {
+        if let Some(prev) = dirs[..k].iter().find(|p| same_dir(p, d)) {
+            bail!(
+                "merge: the same directory is given twice ({} and {}): give each shard once",
+                prev.display(),
+                d.display()
+            );
+        }
+    }
+    let given: Vec<(&PathBuf, Option<(usize, usize)>)> = dirs
+        .iter()
+        .zip(manifests)
+        .filter_map(|(d, m)| m.as_ref().map(|m| (d, m.shard)))
+        .collect();
+    for (k, &(d, shard)) in given.iter().enumerate() {
+        let split = |s: Option<(usize, usize)>| s.map(|(_, n)| n);
+        if let Some(&(p, other)) = given[..k].iter().find(|(_, s)| split(*s) != split(shard)) {
+            bail!(
+                "merge: {} holds {} but {} holds {}: shards of different splits do not make one \
+                 table; merge the shards of one split",
+                p.display(),
+                shard_label(other),
+                d.display(),
+                shard_label(shard)
+            );
+        }
+        if let Some(&(p, _)) = given[..k].iter().find(|(_, s)| *s == shard) {
+            bail!(
+                "merge: {} and {} both hold {}: give each shard once",
+                p.display(),
+                d.display(),
+                shard_label(shard)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// What is wrong with each shard directory of a merge (see [`MergeSummary::shard_problems`]),
+/// then the shards of the split that have planned jobs and that no directory holds.
 fn shard_problems(dirs: &[PathBuf], manifests: &[Option<Manifest>], plan: &Plan) -> Vec<String> {
     let mut out = Vec::new();
     for (d, m) in dirs.iter().zip(manifests) {
@@ -629,6 +786,22 @@ fn shard_problems(dirs: &[PathBuf], manifests: &[Option<Manifest>], plan: &Plan)
                 "{} ({label}): {failed} of {n_jobs} jobs failed (reasons in its jobs/<id>.json)",
                 d.display()
             ));
+        }
+    }
+    // A directory without a manifest may be one of the absent shards: then say so.
+    let absent = if manifests.iter().any(Option::is_none) {
+        "not given or not started"
+    } else {
+        "not given"
+    };
+    let given: Vec<(usize, usize)> = manifests.iter().flatten().filter_map(|m| m.shard).collect();
+    if let Some(&(_, n)) = given.first() {
+        for i in (0..n).filter(|i| !given.contains(&(*i, n))) {
+            if plan.jobs.iter().any(|j| j.index % n == i) {
+                out.push(format!(
+                    "shard {i}/{n} {absent} (no directory holds its manifest.json)"
+                ));
+            }
         }
     }
     out
