@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result, anyhow, bail};
 
 use crate::dynamics::simulate::default_time_step;
 use crate::dynamics::{Boundary, SimError, Simulation};
@@ -645,6 +645,19 @@ pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Re
     // here (Rotor 37: 26 s sequential against 49 s with 2 threads).
     faer::set_global_parallelism(faer::Par::Seq);
     let start = std::time::Instant::now();
+    // The ROM must not replace one of the files it is made from.
+    let refuse_output_among = |inputs: &[&Path]| -> Result<()> {
+        let output = std::path::absolute(output)?;
+        for input in inputs {
+            if std::path::absolute(input)? == output {
+                bail!(
+                    "-o {}: that is an input of the import; write the ROM to another file",
+                    output.display()
+                );
+            }
+        }
+        Ok(())
+    };
     let rom = match format {
         ImportFormat::Calculix => {
             let mut spec: CalculixImportSpec =
@@ -657,6 +670,13 @@ pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Re
             ] {
                 *p = base.join(&*p);
             }
+            refuse_output_among(&[
+                spec_path,
+                &spec.stiffness,
+                &spec.mass,
+                &spec.dof_map,
+                &spec.mesh,
+            ])?;
             import_calculix(&spec)?
         }
         ImportFormat::MatrixMarket => {
@@ -670,6 +690,13 @@ pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Re
             ] {
                 *p = base.join(&*p);
             }
+            refuse_output_among(&[
+                spec_path,
+                &spec.stiffness,
+                &spec.mass,
+                &spec.dof_map,
+                &spec.nodes,
+            ])?;
             import_matrix_market(&spec)?
         }
     };

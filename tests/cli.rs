@@ -788,3 +788,29 @@ fn model_build_writes_nothing_when_one_model_is_invalid() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `model import` does not write its ROM over one of its inputs (it used to replace the
+/// import spec itself): refused before the import, exit 1, the input unchanged.
+#[test]
+fn model_import_refuses_to_write_over_its_inputs() {
+    let dir = tmp("importover");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("spec.json");
+    std::fs::copy("tests/data/rotor37_import.json", &spec).unwrap();
+    let before = std::fs::read(&spec).unwrap();
+    for target in [spec.clone(), dir.join("blade.sti")] {
+        let st = rubscan()
+            .args(["model", "import", "calculix"])
+            .arg(&spec)
+            .arg("-o")
+            .arg(&target)
+            .output()
+            .unwrap();
+        let err = stderr(&st);
+        assert_eq!(st.status.code(), Some(1), "{err}");
+        assert!(err.contains("an input of the import"), "{err}");
+    }
+    assert_eq!(std::fs::read(&spec).unwrap(), before);
+    assert!(!dir.join("blade.sti").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

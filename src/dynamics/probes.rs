@@ -389,23 +389,28 @@ impl std::fmt::Display for ProbeError {
 }
 
 /// Resolves the probes of a case against its impeller and (flexible) casing ROMs; every
-/// nonexistent node, missing or superfluous field is an error naming the field.
+/// nonexistent node, missing or superfluous field is an error naming the field, and so is a
+/// probe that repeats an earlier one (two time-series columns of one name).
 pub fn resolve_probes(
     specs: &[ProbeSpec],
     impeller: &CyclicRom,
     casing: Option<&CyclicRom>,
 ) -> Result<Vec<Probe>, ProbeError> {
-    specs
-        .iter()
-        .enumerate()
-        .map(|(index, s)| {
-            resolve_one(s, impeller, casing).map_err(|(field, reason)| ProbeError {
-                index,
-                field,
-                reason,
-            })
-        })
-        .collect()
+    let mut probes: Vec<Probe> = Vec::with_capacity(specs.len());
+    for (index, s) in specs.iter().enumerate() {
+        let fail = |field, reason| ProbeError {
+            index,
+            field,
+            reason,
+        };
+        let probe = resolve_one(s, impeller, casing).map_err(|(f, r)| fail(f, r))?;
+        if let Some(first) = probes.iter().position(|p| p.column == probe.column) {
+            let reason = format!("repeats probe {first} (column `{}`)", probe.column);
+            return Err(fail("", reason));
+        }
+        probes.push(probe);
+    }
+    Ok(probes)
 }
 
 type FieldError = (&'static str, String);
@@ -761,6 +766,24 @@ mod tests {
         assert_eq!(p[2].target, ProbeTarget::Blade { blade: 2, index: 1 });
         // Node 1353 sits on +y: its tangential direction is −x.
         assert!((p[5].direction - Vector3::new(-1.0, 0.0, 0.0)).norm() < 1e-15);
+    }
+
+    /// A probe that repeats an earlier one (the same contact node and quantity twice) would
+    /// write a second column of the same name: refused, naming both.
+    #[test]
+    fn a_repeated_probe_is_refused() {
+        let imp = impeller();
+        let specs = [
+            spec(serde_json::json!({"contact_node": 188, "quantity": "gap"})),
+            spec(serde_json::json!({"node": 1353, "quantity": "displacement", "component": "y"})),
+            spec(serde_json::json!({"contact_node": 188, "quantity": "gap"})),
+        ];
+        let e = resolve_probes(&specs, &imp, None).unwrap_err();
+        assert_eq!((e.index, e.field), (2, ""));
+        assert!(
+            e.reason.contains("repeats probe 0") && e.reason.contains("contact188_gap_m"),
+            "{e}"
+        );
     }
 
     #[test]

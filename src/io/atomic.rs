@@ -18,6 +18,12 @@ pub struct AtomicFile {
 impl AtomicFile {
     /// Creates the temporary file (and the parent directories of `path`).
     pub fn create(path: &Path) -> io::Result<Self> {
+        if path.is_dir() {
+            return Err(io::Error::new(
+                io::ErrorKind::IsADirectory,
+                format!("{} is a directory, not a file", path.display()),
+            ));
+        }
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             fs::create_dir_all(dir)?;
         }
@@ -40,7 +46,10 @@ impl AtomicFile {
             .ok_or_else(|| io::Error::other("already committed"))?;
         file.sync_all()?;
         drop(file);
-        fs::rename(&self.tmp, &self.path)?;
+        if let Err(e) = fs::rename(&self.tmp, &self.path) {
+            let _ = fs::remove_file(&self.tmp);
+            return Err(e);
+        }
         sync_parent(&self.path)
     }
 
@@ -116,6 +125,12 @@ mod tests {
         assert_eq!(fs::read_dir(path.parent().unwrap()).unwrap().count(), 1);
         write_atomic(&path, b"second").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"second");
+        // A target that is a directory is named, and leaves no temporary file.
+        let sub = dir.join("sub").join("d");
+        fs::create_dir_all(&sub).unwrap();
+        let err = write_atomic(&sub, b"x").unwrap_err().to_string();
+        assert!(err.contains("is a directory"), "{err}");
+        assert_eq!(fs::read_dir(path.parent().unwrap()).unwrap().count(), 2);
         fs::remove_dir_all(&dir).unwrap();
     }
 }

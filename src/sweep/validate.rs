@@ -16,8 +16,9 @@ use crate::contact::{GapDirection, ImposedGap};
 use crate::dynamics::probes::resolve_probes;
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::io::{model_cache, rom_file};
-use crate::model::rom::CyclicRom;
+use crate::model::rom::{Component, CyclicRom};
 use crate::sweep::spec::{CasingSource, ModelSource, RigidCasing, SpecError, SpecIssue, SweepSpec};
+use std::path::Path;
 
 /// Fraction of the largest tabulated speed by which a speed-dependent impeller ROM may be
 /// extrapolated. The reduction basis and the Campbell data cover the tabulated speeds; a
@@ -87,6 +88,25 @@ fn causes(e: &(dyn std::error::Error + 'static)) -> String {
     text
 }
 
+/// `rom` when it models `kind` (an impeller turns in the rotating frame, a casing stands in
+/// the fixed one: one cannot stand for the other); else why not, naming its file `path`.
+fn of_kind(rom: CyclicRom, kind: Component, path: &Path) -> Result<CyclicRom, String> {
+    if rom.component == kind {
+        Ok(rom)
+    } else {
+        let name = |c: Component| match c {
+            Component::Impeller => "an impeller",
+            Component::Casing => "a casing",
+        };
+        Err(format!(
+            "{} holds {} ROM, not {} one (`rubscan model info` says which a file holds)",
+            path.display(),
+            name(rom.component),
+            name(kind)
+        ))
+    }
+}
+
 /// Validates `spec` as a whole and resolves its models; every problem is returned at once
 /// with its JSON pointer. Static checks ([`SweepSpec::validate`]) run first and stop before
 /// any model is built or loaded.
@@ -98,16 +118,20 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
             .map(|rom| (rom, Some(b.geometry.tip_clearance)))
             .map_err(|e| issue("/models/impeller/builtin", causes(e.as_ref()))),
         ModelSource::Rom(p) => rom_file::load(p)
+            .map_err(|e| causes(&e))
+            .and_then(|rom| of_kind(rom, Component::Impeller, p))
             .map(|rom| (rom, None))
-            .map_err(|e| issue("/models/impeller/rom", causes(&e))),
+            .map_err(|e| issue("/models/impeller/rom", e)),
     };
     let casing = match &spec.models.casing {
         CasingSource::Builtin(b) => model_cache::casing_rom(b)
             .map(ResolvedCasing::Flexible)
             .map_err(|e| issue("/models/casing/builtin", causes(e.as_ref()))),
         CasingSource::Rom(p) => rom_file::load(p)
+            .map_err(|e| causes(&e))
+            .and_then(|rom| of_kind(rom, Component::Casing, p))
             .map(ResolvedCasing::Flexible)
-            .map_err(|e| issue("/models/casing/rom", causes(&e))),
+            .map_err(|e| issue("/models/casing/rom", e)),
         CasingSource::Rigid(r) => Ok(ResolvedCasing::Rigid(r.clone())),
         CasingSource::ImposedGap(g) => Ok(ResolvedCasing::ImposedGap(g.clone())),
     };
@@ -322,6 +346,31 @@ mod tests {
         let err = err.to_string();
         assert!(err.contains("/models/impeller/builtin"), "{err}");
         assert_eq!(err.matches("blade_thickness").count(), 1, "{err}");
+    }
+
+    /// A casing ROM given as the impeller is refused at its pointer, naming the file and what
+    /// it holds (it used to run, its sectors taken for blades).
+    #[test]
+    fn a_casing_rom_given_as_the_impeller_is_refused() {
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
+        let dir = std::env::temp_dir().join(format!("rubscan-kind-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("casing.rom");
+        let casing = synthetic_rom(&SyntheticSpec::small(Component::Casing, 4, 2, 2));
+        rom_file::save(&casing, &path).unwrap();
+        let mut spec = rigid_spec(&[500.0], 1e-7);
+        spec.models.impeller = ModelSource::Rom(path.clone());
+        let Err(err) = resolve(&spec) else {
+            panic!("a casing ROM was accepted as the impeller")
+        };
+        let err = err.to_string();
+        assert!(
+            err.contains("/models/impeller/rom")
+                && err.contains(&path.display().to_string())
+                && err.contains("holds a casing ROM, not an impeller one"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
