@@ -284,14 +284,31 @@ pub fn simulate(
         },
         Path::to_path_buf,
     );
+    // The directories this call makes, removed again if the job fails (they hold nothing
+    // then: the series is written under a temporary name until it is complete).
+    let made: Vec<PathBuf> = dir
+        .ancestors()
+        .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+        .map(Path::to_path_buf)
+        .collect();
     let mut series = TimeSeriesWriter::create(&dir.join("timeseries.parquet"))?;
     let report = spec.scenario.revolution_report;
     let mut figures = report.map(|w| ProbeReport::new(case.omega, case.duration, w));
     let out = match figures.as_mut() {
         Some(f) => simulation.run(&mut (&mut series, f), Some(&cancel)),
         None => simulation.run(&mut series, Some(&cancel)),
-    }
-    .map_err(failed)?;
+    };
+    let out = match out {
+        Ok(out) => out,
+        Err(e) => {
+            drop(series);
+            for d in &made {
+                // Only empty directories go: nothing else is touched.
+                let _ = std::fs::remove_dir(d);
+            }
+            return Err(failed(e));
+        }
+    };
     series.finish()?;
     let figures = figures
         .map(ProbeReport::finish)

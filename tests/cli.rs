@@ -306,7 +306,7 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
         String::from_utf8_lossy(&warm.stderr)
     );
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &[&str]); 16] = [
+    let cases: [(&str, Edit, &[&str]); 17] = [
         (
             "probe_typo",
             |v| v["scenario"]["probes"] = serde_json::json!([{"nod": 5, "quantity": "gap"}]),
@@ -403,6 +403,16 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
                 v["grid"]["coating"] = serde_json::json!({"young": {"scale": many[1..]}});
             },
             &["/grid", "jobs, more than the 100000"],
+        ),
+        (
+            // 10 m: meant as mm; the job would diverge at its first contact.
+            "load_far_too_large",
+            |v| v["scenario"]["load_amplitude_m"] = serde_json::json!(10.0),
+            &[
+                "/scenario/load_amplitude_m",
+                "blade-tip radius",
+                "unit mistake",
+            ],
         ),
         (
             "coating_elements_too_many",
@@ -812,5 +822,39 @@ fn model_import_refuses_to_write_over_its_inputs() {
     }
     assert_eq!(std::fs::read(&spec).unwrap(), before);
     assert!(!dir.join("blade.sti").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A `simulate` stopped before its job ends (Ctrl-C; a failed job takes the same path)
+/// leaves no output directory behind: exit 130, and the directories it made are gone.
+#[test]
+fn an_interrupted_simulate_leaves_no_output_directory() {
+    let dir = tmp("simint");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = small_with(&dir, "spec", |v| {
+        v["scenario"]["duration_s"] = serde_json::json!(0.5);
+    });
+    let out = dir.join("made").join("out");
+    let mut child = rubscan()
+        .arg("simulate")
+        .arg(&spec)
+        .arg("-o")
+        .arg(&out)
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    // The directory appears once the job is set up and its series opened.
+    while !out.exists() && start.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(out.exists(), "simulate never started");
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    assert!(!dir.join("made").exists(), "output directory left behind");
     std::fs::remove_dir_all(&dir).unwrap();
 }

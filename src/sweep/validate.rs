@@ -143,6 +143,7 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
             return Err(SpecError::Invalid(issues));
         }
     };
+    check_displacement_scale(spec, &impeller, &mut issues);
     check_speeds_and_step(spec, &impeller, &casing, &mut issues);
     check_probes(spec, &casing, &mut issues);
     check_gap_directions(&impeller, &casing, &mut issues);
@@ -156,6 +157,48 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
         })
     } else {
         Err(SpecError::Invalid(issues))
+    }
+}
+
+/// Largest casing load, clearance or rigid-profile amplitude (m), relative to the blade-tip
+/// radius: the models are linear, so their displacements must stay small against their size;
+/// 5 % (10 mm at a 0.2 m tip) is 10× the paper's loads and clearances, and a value above it is
+/// a unit mistake (mm given as m) that would fail only once its job runs.
+pub const MAX_DISPLACEMENT_OF_RADIUS: f64 = 0.05;
+
+/// The displacements the spec imposes, against [`MAX_DISPLACEMENT_OF_RADIUS`] of the
+/// impeller's largest tip radius.
+fn check_displacement_scale(spec: &SweepSpec, impeller: &CyclicRom, issues: &mut Vec<SpecIssue>) {
+    let radius = impeller
+        .contact_nodes
+        .iter()
+        .map(|n| n.position[0].hypot(n.position[1]))
+        .fold(0.0, f64::max);
+    let limit = MAX_DISPLACEMENT_OF_RADIUS * radius;
+    let mut imposed: Vec<(String, f64)> = Vec::new();
+    if let Some(a) = spec.scenario.load_amplitude_m {
+        imposed.push(("/scenario/load_amplitude_m".into(), a));
+    }
+    for (i, c) in spec.grid.clearance_m.iter().flatten().enumerate() {
+        imposed.push((format!("/grid/clearance_m/{i}"), *c));
+    }
+    if let CasingSource::Rigid(r) = &spec.models.casing {
+        imposed.push(("/models/casing/rigid/amplitude_m".into(), r.amplitude_m));
+        for (i, o) in r.gap_offsets_m.iter().flatten().enumerate() {
+            imposed.push((format!("/models/casing/rigid/gap_offsets_m/{i}"), *o));
+        }
+    }
+    for (path, value) in imposed {
+        if value.abs() > limit {
+            issues.push(issue(
+                path,
+                format!(
+                    "{value} m is over {:.0} % of the blade-tip radius {radius:.4} m ({limit:.3e} m): \
+                     the models are linear and their displacements small (a unit mistake?)",
+                    100.0 * MAX_DISPLACEMENT_OF_RADIUS
+                ),
+            ));
+        }
     }
 }
 
