@@ -306,7 +306,7 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
         String::from_utf8_lossy(&warm.stderr)
     );
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &[&str]); 17] = [
+    let cases: [(&str, Edit, &[&str]); 18] = [
         (
             "probe_typo",
             |v| v["scenario"]["probes"] = serde_json::json!([{"nod": 5, "quantity": "gap"}]),
@@ -413,6 +413,12 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
                 "blade-tip radius",
                 "unit mistake",
             ],
+        ),
+        (
+            // The small casing has 12 sectors: 7 lobes would load it on 5.
+            "lobes_alias",
+            |v| v["scenario"]["lobes"] = serde_json::json!(7),
+            &["/scenario/lobes", "12 sectors", "at most 6"],
         ),
         (
             "coating_elements_too_many",

@@ -146,6 +146,7 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
     check_displacement_scale(spec, &impeller, &mut issues);
     check_speeds_and_step(spec, &impeller, &casing, &mut issues);
     check_probes(spec, &casing, &mut issues);
+    check_lobes(spec, &casing, &mut issues);
     check_gap_directions(&impeller, &casing, &mut issues);
     check_node_probes(spec, &impeller, &casing, &mut issues);
     if issues.is_empty() {
@@ -334,6 +335,25 @@ fn check_probes(spec: &SweepSpec, casing: &ResolvedCasing, issues: &mut Vec<Spec
                 ),
             ));
         }
+    }
+}
+
+/// An n-lobe casing load on N sectors is sampled once per sector: above N/2 lobes it aliases
+/// to N − n lobes (Nyquist), so the casing would be loaded on a shape the spec does not say.
+fn check_lobes(spec: &SweepSpec, casing: &ResolvedCasing, issues: &mut Vec<SpecIssue>) {
+    let (ResolvedCasing::Flexible(rom), Some(lobes)) = (casing, spec.scenario.lobes) else {
+        return;
+    };
+    let sectors = rom.n_sectors;
+    if 2 * lobes as usize > sectors {
+        issues.push(issue(
+            "/scenario/lobes",
+            format!(
+                "{lobes} lobes on a casing of {sectors} sectors: at most {} (more alias to fewer \
+                 lobes on the sectors)",
+                sectors / 2
+            ),
+        ));
     }
 }
 
