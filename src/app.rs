@@ -617,7 +617,7 @@ pub struct SlurmArgs {
 /// beside the output directory, and prints the sbatch commands, or submits them and prints
 /// the job ids.
 pub fn slurm(spec_path: &Path, args: &SlurmArgs) -> Result<String, AppError> {
-    let (spec, _, _) = checked_sweep(spec_path)?;
+    let (spec, _, plan) = checked_sweep(spec_path)?;
     let absolute = |p: &Path| {
         std::path::absolute(p).with_context(|| format!("cannot make {} absolute", p.display()))
     };
@@ -636,6 +636,7 @@ pub fn slurm(spec_path: &Path, args: &SlurmArgs) -> Result<String, AppError> {
         partition: args.partition.clone(),
     };
     job.validate()?;
+    job.check_tasks(plan.jobs.len())?;
     let (array, merge) = job.write()?;
     let mut s = format!(
         "wrote {} ({} tasks) and {}\n",

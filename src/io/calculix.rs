@@ -650,13 +650,36 @@ fn nset_line(
 }
 
 /// How the contact nodes are chosen; their order is the row order (leading → trailing edge).
+/// In JSON, an object with exactly one of its fields: `{"nodes": […]}` or `{"node_set": "…"}`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+#[serde(rename_all = "snake_case", try_from = "ContactFields")]
 pub enum ContactSelection {
     /// Node ids of the FE model, in row order.
     Nodes(Vec<usize>),
     /// A CalculiX `*NSET` of the deck, in file order.
     NodeSet(String),
+}
+
+/// The JSON of a [`ContactSelection`], read field by field so that a misspelt field is
+/// named and two fields are refused by name (serde's enum reading says only "expected value").
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ContactFields {
+    nodes: Option<Vec<usize>>,
+    node_set: Option<String>,
+}
+
+impl TryFrom<ContactFields> for ContactSelection {
+    type Error = String;
+    fn try_from(f: ContactFields) -> Result<Self, String> {
+        match (f.nodes, f.node_set) {
+            (Some(ids), None) => Ok(Self::Nodes(ids)),
+            (None, Some(set)) => Ok(Self::NodeSet(set)),
+            _ => Err(
+                "contact: give exactly one of `nodes` (node ids) or `node_set` (an *NSET)".into(),
+            ),
+        }
+    }
 }
 
 /// What `rubscan model import` needs to import a CalculiX model (JSON-deserializable).
@@ -1160,5 +1183,18 @@ pub(crate) mod tests {
         );
         let back: CalculixImportSpec = serde_json::from_str(&json).unwrap();
         assert_eq!(back, spec);
+        // A misspelt contact field is named; two, or none, are refused by name.
+        let with_contact = |contact: &str| {
+            let v = json.replace("{\"nodes\":[188,190]}", contact);
+            serde_json::from_str::<CalculixImportSpec>(&v)
+                .unwrap_err()
+                .to_string()
+        };
+        let e = with_contact("{\"nodez\":[188]}");
+        assert!(e.contains("unknown field `nodez`"), "{e}");
+        for contact in ["{\"nodes\":[188],\"node_set\":\"TIP\"}", "{}"] {
+            let e = with_contact(contact);
+            assert!(e.contains("exactly one of `nodes`"), "{contact}: {e}");
+        }
     }
 }

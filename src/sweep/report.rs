@@ -43,6 +43,9 @@ pub enum ReportError {
         /// What is wrong with it.
         reason: String,
     },
+    /// An option is out of range (named, with the reason).
+    #[error("{0}")]
+    Option(String),
     /// A figure could not be drawn or written.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -71,10 +74,12 @@ pub struct ResultsDir {
 pub fn load_results(dir: &Path) -> Result<ResultsDir, ReportError> {
     let input = |path: PathBuf, reason: String| ReportError::Input { path, reason };
     if !dir.is_dir() {
-        return Err(input(
-            dir.to_path_buf(),
-            "not a results directory (no such directory)".into(),
-        ));
+        let reason = if dir.exists() {
+            "not a directory (expected the output directory of `rubscan run` or `merge`)"
+        } else {
+            "not a results directory (no such directory)"
+        };
+        return Err(input(dir.to_path_buf(), reason.into()));
     }
     let manifest_path = dir.join("manifest.json");
     let manifest = read_manifest(dir).map_err(|e| {
@@ -88,7 +93,14 @@ pub fn load_results(dir: &Path) -> Result<ResultsDir, ReportError> {
     })?;
     let table = dir.join("results.parquet");
     if !table.is_file() {
-        return Err(input(table, "missing (the sweep has not finished?)".into()));
+        let reason = if table.is_dir() {
+            "a directory, not the Parquet table of the sweep"
+        } else if table.exists() {
+            "not a regular file, not the Parquet table of the sweep"
+        } else {
+            "missing (the sweep has not finished?)"
+        };
+        return Err(input(table, reason.into()));
     }
     let records = read_records(&table).map_err(|e| input(table.clone(), format!("{e:#}")))?;
     if !records.iter().any(|(_, r)| r.is_ok()) {
@@ -314,14 +326,28 @@ pub fn blade_mode_lines(sim: &ModelSimulator, diameters: &[u32]) -> Vec<ModeLine
 }
 
 /// Options of [`write_report`].
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct ReportOptions {
     /// Output directory (default `<results dir>/report`).
     pub output_dir: Option<PathBuf>,
     /// Job indices to overlay; empty: chosen by [`select_jobs`].
     pub jobs: Vec<usize>,
-    /// At most this many jobs chosen by [`select_jobs`] (0: [`DEFAULT_MAX_JOBS`]).
+    /// At most this many jobs chosen by [`select_jobs`], ≥ 1 (0 is refused: a report with
+    /// no job overlaid is not what anyone asks for, and `--max-jobs 0` must not silently
+    /// mean something else).
     pub max_jobs: usize,
+}
+
+impl Default for ReportOptions {
+    /// The default output directory, jobs chosen by [`select_jobs`], at most
+    /// [`DEFAULT_MAX_JOBS`] of them.
+    fn default() -> Self {
+        ReportOptions {
+            output_dir: None,
+            jobs: Vec::new(),
+            max_jobs: DEFAULT_MAX_JOBS,
+        }
+    }
 }
 
 /// What [`write_report`] wrote.
@@ -417,12 +443,7 @@ fn chosen_jobs<'a>(
 ) -> Result<Vec<&'a (usize, JobRecord)>, ReportError> {
     let table = res.dir.join("results.parquet");
     let ids = if opts.jobs.is_empty() {
-        let max = if opts.max_jobs == 0 {
-            DEFAULT_MAX_JOBS
-        } else {
-            opts.max_jobs
-        };
-        select_jobs(&res.records, max)
+        select_jobs(&res.records, opts.max_jobs)
     } else {
         opts.jobs.clone()
     };
@@ -546,6 +567,11 @@ fn interaction_figures(
 /// Writes the report of the results directory `dir` (see the module doc) and returns what
 /// it wrote. Inputs are read and checked before any file is written.
 pub fn write_report(dir: &Path, opts: &ReportOptions) -> Result<Report, ReportError> {
+    if opts.max_jobs == 0 {
+        return Err(ReportError::Option(
+            "--max-jobs 0: must be ≥ 1 (the number of jobs overlaid when no --job is named)".into(),
+        ));
+    }
     let res = load_results(dir)?;
     let chosen = chosen_jobs(&res, opts)?;
     let out = opts

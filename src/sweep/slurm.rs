@@ -97,6 +97,55 @@ pub fn shard_dirs(out: &Path, n: usize) -> Vec<PathBuf> {
     (0..n).map(|i| shard_dir(out, i, n)).collect()
 }
 
+/// Checks a Slurm time limit (`sbatch --time`): minutes, `MM:SS`, `HH:MM:SS`, `D-HH`,
+/// `D-HH:MM` or `D-HH:MM:SS`, each field digits only. Minutes and seconds after the leading
+/// field are < 60 and hours after a day count < 24: a field out of range (25:99:00) is a
+/// typo, and the limit Slurm would make of it is not the one meant. The error says which
+/// field is wrong; the caller names the option.
+pub fn check_time(text: &str) -> Result<()> {
+    let number = |field: &str, what: &str| -> Result<u32> {
+        if field.is_empty() || !field.chars().all(|c| c.is_ascii_digit()) {
+            bail!("the {what} {field:?} is not a number");
+        }
+        field
+            .parse::<u32>()
+            .with_context(|| format!("the {what} {field} is too large"))
+    };
+    let below = |field: &str, what: &str, limit: u32| -> Result<()> {
+        let v = number(field, what)?;
+        if v >= limit {
+            bail!("the {what} {v} must be < {limit}");
+        }
+        Ok(())
+    };
+    let (days, clock) = match text.split_once('-') {
+        Some((d, c)) => (Some(d), c),
+        None => (None, text),
+    };
+    let fields: Vec<&str> = clock.split(':').collect();
+    match (days, fields.as_slice()) {
+        (None, [m]) => number(m, "minutes").map(drop),
+        (None, [m, s]) => {
+            number(m, "minutes")?;
+            below(s, "seconds", 60)
+        }
+        (None, [h, m, s]) => {
+            number(h, "hours")?;
+            below(m, "minutes", 60)?;
+            below(s, "seconds", 60)
+        }
+        (Some(d), [h, rest @ ..]) if rest.len() <= 2 => {
+            number(d, "days")?;
+            below(h, "hours", 24)?;
+            for (f, what) in rest.iter().zip(["minutes", "seconds"]) {
+                below(f, what, 60)?;
+            }
+            Ok(())
+        }
+        _ => bail!("too many fields"),
+    }
+}
+
 /// A sweep as a Slurm job array (one task per shard) plus a merge job: what
 /// `rubscan slurm` writes and submits.
 #[derive(Debug, Clone, PartialEq)]
@@ -129,8 +178,10 @@ fn path_arg(p: &Path) -> String {
 }
 
 impl ArrayJob {
-    /// Checks the options: ≥ 1 task and CPU, a Slurm time (`[D-]HH:MM:SS`, `MM:SS`, minutes),
-    /// a partition name without blanks. Errors name the option.
+    /// Checks the options before anything is written: ≥ 1 task and CPU, a Slurm time
+    /// ([`check_time`]), a partition name without blanks, and an output directory that is a
+    /// directory or does not exist yet (likewise the script directory beside it), since the
+    /// tasks write their shards under it. Errors name the option.
     pub fn validate(&self) -> Result<()> {
         if self.tasks == 0 {
             bail!("--tasks 0: an array needs at least one task");
@@ -139,15 +190,12 @@ impl ArrayJob {
             bail!("--cpus-per-task 0: a task needs at least one CPU");
         }
         if let Some(t) = &self.time {
-            let ok = !t.is_empty()
-                && t.chars()
-                    .all(|c| c.is_ascii_digit() || c == ':' || c == '-')
-                && t.split([':', '-']).all(|f| !f.is_empty())
-                && t.matches(':').count() <= 2
-                && t.matches('-').count() <= 1;
-            if !ok {
-                bail!("--time {t:?}: expected a Slurm time such as 02:00:00, 1-00:00:00 or 90");
-            }
+            check_time(t).with_context(|| {
+                format!(
+                    "--time {t:?}: expected a Slurm time such as 02:00:00, 1-00:00:00 or 90 \
+                     (minutes, MM:SS, HH:MM:SS, D-HH, D-HH:MM or D-HH:MM:SS)"
+                )
+            })?;
         }
         if let Some(p) = &self.partition
             && (p.is_empty()
@@ -156,6 +204,35 @@ impl ArrayJob {
                     .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c)))
         {
             bail!("--partition {p:?}: expected a partition name ([A-Za-z0-9_.-]+)");
+        }
+        for (dir, what) in [
+            (&self.output, "the sweep's output directory"),
+            (&self.script_dir(), "the directory of the scripts"),
+        ] {
+            if dir.exists() && !dir.is_dir() {
+                bail!(
+                    "-o {}: {} exists and is not a directory; {what} must be a directory or \
+                     not exist yet",
+                    self.output.display(),
+                    dir.display()
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks `--tasks` against the `planned_jobs` of the sweep: each task runs one shard
+    /// (jobs with index ≡ i mod n), so a task beyond the number of jobs would run nothing.
+    /// Refused rather than clamped: the split `n` is the user's choice and names the shard
+    /// directories (`<i>-of-<n>`), so it is not changed behind their back.
+    pub fn check_tasks(&self, planned_jobs: usize) -> Result<()> {
+        if self.tasks > planned_jobs {
+            bail!(
+                "--tasks {}: more array tasks than the {planned_jobs} planned jobs of the sweep \
+                 (each task runs one shard of the jobs); use --tasks {} or fewer",
+                self.tasks,
+                planned_jobs
+            );
         }
         Ok(())
     }
@@ -463,10 +540,73 @@ mod tests {
         assert!(err(|j| j.time = Some("1::0".into())).contains("--time"));
         assert!(err(|j| j.partition = Some("a b".into())).contains("--partition"));
         let mut j = job();
-        for t in ["90", "30:00", "02:00:00", "1-00:00:00"] {
+        for t in [
+            "90",
+            "30:00",
+            "90:59",
+            "02:00:00",
+            "48:00:00",
+            "1-00:00:00",
+            "1-12",
+            "1-23:59",
+            "0",
+        ] {
             j.time = Some(t.into());
             j.validate().unwrap();
         }
+    }
+
+    #[test]
+    fn times_out_of_range_are_rejected_naming_the_field() {
+        for (t, why) in [
+            ("25:99:00", "minutes 99 must be < 60"),
+            ("00:10:60", "seconds 60 must be < 60"),
+            ("10:75", "seconds 75 must be < 60"),
+            ("1-24:00:00", "hours 24 must be < 24"),
+            ("1-00:60", "minutes 60 must be < 60"),
+            ("1:2-3", "not a number"),
+            ("1-2:3:4:5", "too many fields"),
+            ("", "not a number"),
+            ("99999999999", "too large"),
+        ] {
+            let mut j = job();
+            j.time = Some(t.into());
+            let e = format!("{:#}", j.validate().unwrap_err());
+            assert!(e.contains(&format!("--time {t:?}")), "{e}");
+            assert!(e.contains(why), "{t}: {e}");
+        }
+    }
+
+    #[test]
+    fn more_tasks_than_planned_jobs_are_refused_naming_both_counts() {
+        let j = job();
+        j.check_tasks(3).unwrap();
+        j.check_tasks(6).unwrap();
+        let e = format!("{:#}", j.check_tasks(2).unwrap_err());
+        assert!(
+            e.contains("--tasks 3") && e.contains("2 planned jobs"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn an_output_that_is_a_file_is_refused() {
+        let dir = std::env::temp_dir().join(format!("rubscan-slurm-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut j = job();
+        j.output = dir.join("results");
+        j.validate().unwrap();
+        std::fs::write(&j.output, "x").unwrap();
+        let e = format!("{:#}", j.validate().unwrap_err());
+        assert!(e.contains("-o ") && e.contains("is not a directory"), "{e}");
+        std::fs::remove_file(&j.output).unwrap();
+        std::fs::write(j.script_dir(), "x").unwrap();
+        let e = format!("{:#}", j.validate().unwrap_err());
+        assert!(
+            e.contains("results.slurm exists and is not a directory"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

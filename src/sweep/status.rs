@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, anyhow, bail};
 
 use super::planner::plan;
-use super::runner::{Manifest, load_records, read_manifest};
+use super::runner::{Manifest, load_records, read_manifest, read_manifest_if_any};
 use super::slurm::shard_dirs;
 
 /// Progress of one output directory (a shard, or the whole sweep).
@@ -75,7 +75,8 @@ fn effective_threads(threads: usize) -> usize {
 type Unit = (Option<(usize, usize)>, PathBuf);
 
 /// The manifest that names the spec, and the directories to count: the shard directories
-/// of `<out>/shards/` when there are any, else `out` itself.
+/// of `<out>/shards/` when there are any, else `out` itself. A shard whose `manifest.json`
+/// exists but cannot be read is named in a warning on stderr, not skipped silently.
 fn units(out: &Path) -> Result<(Manifest, Vec<Unit>)> {
     let shards_root = out.join("shards");
     if !shards_root.is_dir() {
@@ -86,11 +87,24 @@ fn units(out: &Path) -> Result<(Manifest, Vec<Unit>)> {
     let mut dirs: Vec<PathBuf> = std::fs::read_dir(&shards_root)
         .with_context(|| format!("cannot read {}", shards_root.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|d| d.is_dir())
         .collect();
     dirs.sort();
-    let Some(m) = dirs.iter().find_map(|d| read_manifest(d).ok()) else {
+    // The first readable manifest names the spec; an unreadable one makes its shard count
+    // as not started, so that the others can still be reported.
+    let mut first = None;
+    for d in &dirs {
+        match read_manifest_if_any(d) {
+            Ok(Some(m)) => {
+                first.get_or_insert(m);
+            }
+            Ok(None) => {}
+            Err(e) => eprintln!("warning: {e:#}; that shard counts as not started"),
+        }
+    }
+    let Some(m) = first else {
         bail!(
-            "{}: no shard has started yet (no manifest.json in its directories)",
+            "{}: no shard has started yet (no readable manifest.json in its directories)",
             shards_root.display()
         )
     };
