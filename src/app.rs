@@ -54,8 +54,9 @@ pub enum AppError {
     /// cannot be built or loaded.
     #[error(transparent)]
     Invalid(#[from] SpecError),
-    /// Any other error that stopped the command (bad argument, unreadable file, I/O).
-    #[error("{0:#}")]
+    /// Any other error that stopped the command (bad argument, unreadable file, I/O), with
+    /// its causes, each said once.
+    #[error("{}", crate::sweep::validate::causes(.0.as_ref()))]
     Failed(#[from] anyhow::Error),
     /// The sweep ran but jobs failed.
     #[error(
@@ -746,5 +747,22 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("/nonexistent/x.rom"), "{err}");
+    }
+
+    /// A cause that the message above it already quotes is not said again (it printed
+    /// "Is a directory (os error 21): Is a directory (os error 21)"); a new one is.
+    #[test]
+    fn an_error_says_each_cause_once() {
+        let io = || std::io::Error::from(std::io::ErrorKind::IsADirectory);
+        let quoted = anyhow::Error::new(io()).context(format!("writing out.png: {}", io()));
+        assert_eq!(
+            AppError::Failed(quoted).to_string(),
+            format!("writing out.png: {}", io())
+        );
+        let apart = anyhow::Error::new(io()).context("writing out.png");
+        assert_eq!(
+            AppError::Failed(apart).to_string(),
+            format!("writing out.png: {}", io())
+        );
     }
 }

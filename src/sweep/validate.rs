@@ -73,9 +73,9 @@ fn issue(path: impl Into<String>, reason: impl Into<String>) -> SpecIssue {
     }
 }
 
-/// An error and its causes, each said once: the model errors name their source in their own
-/// message, so the chain would repeat it.
-fn causes(e: &(dyn std::error::Error + 'static)) -> String {
+/// An error and its causes, each said once: many errors (the model errors, I/O errors with
+/// their file) name their source in their own message, so the chain would repeat it.
+pub(crate) fn causes(e: &(dyn std::error::Error + 'static)) -> String {
     let mut text = String::new();
     for message in std::iter::successors(Some(e), |e| e.source()).map(ToString::to_string) {
         if !text.contains(&message) {
