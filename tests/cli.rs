@@ -3,19 +3,13 @@
 //! resumed giving the table of an uninterrupted run.
 
 mod common;
-use common::table_without_timing;
+use common::{rubscan, stderr, table_without_timing};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const SMALL: &str = "tests/data/small_sweep.json";
-
-fn rubscan() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rubscan"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    c
-}
 
 fn tmp(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("rubscan-cli-{tag}-{}", std::process::id()));
@@ -500,10 +494,6 @@ fn assert_run_refused(spec: &Path, out: &Path, expect: &[&str]) {
         }
         assert!(!out.exists(), "{cmd}: output written: {err}");
     }
-}
-
-fn stderr(out: &std::process::Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
 /// A coating so thick that the clearance to its unworn surface would take the tips off the

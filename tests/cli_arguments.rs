@@ -2,36 +2,19 @@
 //! exit status 1, an error naming the argument and the reason, and nothing written; a
 //! corrupt shard manifest is named in a warning by `status` instead of being skipped.
 
+mod common;
+use common::{rubscan, stderr};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 const SMALL: &str = "tests/data/small_sweep.json";
-
-fn rubscan() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rubscan"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    for k in [
-        "SLURM_ARRAY_TASK_ID",
-        "SLURM_ARRAY_TASK_MIN",
-        "SLURM_ARRAY_TASK_STEP",
-        "SLURM_ARRAY_TASK_COUNT",
-        "SLURM_CPUS_PER_TASK",
-    ] {
-        c.env_remove(k);
-    }
-    c
-}
 
 /// A fresh (absent) directory under the system's temporary directory.
 fn tmp(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("rubscan-args-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// `<dir>.slurm`, where `rubscan slurm -o <dir>` writes its scripts.

@@ -4,8 +4,11 @@
 //! `status` names the job records it cannot read. Library calls on the synthetic simulator, and
 //! the binary on the small built-in models for the exit statuses.
 
+mod common;
+use common::stderr;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rubscan::sweep::synthetic::SyntheticSimulator;
@@ -283,22 +286,7 @@ fn merge_refuses_a_shard_whose_manifest_is_unreadable() {
 }
 
 fn rubscan(args: &[&str], paths: &[&Path]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rubscan"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    for k in [
-        "SLURM_ARRAY_TASK_ID",
-        "SLURM_ARRAY_TASK_MIN",
-        "SLURM_ARRAY_TASK_STEP",
-        "SLURM_ARRAY_TASK_COUNT",
-        "SLURM_CPUS_PER_TASK",
-    ] {
-        c.env_remove(k);
-    }
-    c.args(args).args(paths).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    common::rubscan().args(args).args(paths).output().unwrap()
 }
 
 #[test]

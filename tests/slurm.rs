@@ -3,36 +3,17 @@
 //! `.ci/slurm/start.sh` has started a one-node cluster) a real array submitted and merged.
 
 mod common;
-use common::table_without_timing;
+use common::{rubscan, stderr, table_without_timing};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 const SMALL: &str = "tests/data/small_sweep.json";
 
-fn rubscan() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rubscan"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
-    for k in [
-        "SLURM_ARRAY_TASK_ID",
-        "SLURM_ARRAY_TASK_MIN",
-        "SLURM_ARRAY_TASK_STEP",
-        "SLURM_ARRAY_TASK_COUNT",
-        "SLURM_CPUS_PER_TASK",
-    ] {
-        c.env_remove(k);
-    }
-    c
-}
-
 fn tmp(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("rubscan-slurm-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     d
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn manifest(dir: &Path) -> serde_json::Value {

@@ -1,8 +1,33 @@
-//! Helpers shared by the integration tests.
+//! Helpers shared by the integration tests (each test crate uses some of them).
+#![allow(dead_code)]
 
 use arrow_array::RecordBatch;
 use rubscan::sweep::table::read_results;
 use std::path::Path;
+use std::process::{Command, Output};
+
+/// The `rubscan` binary under test, run from the crate root and outside any Slurm job: the
+/// variables of an array task are removed, so that a test run inside one (CI on a cluster)
+/// does not take its shard or thread count from them.
+pub fn rubscan() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_rubscan"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    for k in [
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_MIN",
+        "SLURM_ARRAY_TASK_STEP",
+        "SLURM_ARRAY_TASK_COUNT",
+        "SLURM_CPUS_PER_TASK",
+    ] {
+        c.env_remove(k);
+    }
+    c
+}
+
+/// A finished command's standard error, as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
 
 /// The results table of the sweep output folder `dir` without its timing column
 /// (`wall_time_s`), the part that a rerun must reproduce.
