@@ -25,6 +25,13 @@ impl AtomicFile {
             ));
         }
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            // `create_dir_all` would say only "File exists" of a file in the way.
+            if let Some(file) = dir.ancestors().find(|d| d.is_file()) {
+                return Err(io::Error::new(
+                    io::ErrorKind::NotADirectory,
+                    format!("{} is a file, not a directory", file.display()),
+                ));
+            }
             fs::create_dir_all(dir)?;
         }
         let mut tmp = path.as_os_str().to_owned();
@@ -130,6 +137,14 @@ mod tests {
         fs::create_dir_all(&sub).unwrap();
         let err = write_atomic(&sub, b"x").unwrap_err().to_string();
         assert!(err.contains("is a directory"), "{err}");
+        // A file where a directory should be is named.
+        let err = write_atomic(&path.join("below.bin"), b"x")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(&format!("{} is a file", path.display())),
+            "{err}"
+        );
         assert_eq!(fs::read_dir(path.parent().unwrap()).unwrap().count(), 2);
         fs::remove_dir_all(&dir).unwrap();
     }
