@@ -447,7 +447,8 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
         Some(n) => n,
         None => slurm::threads_from_env(&env)?.unwrap_or(0),
     };
-    let (spec, mut sim, plan) = checked_sweep(spec_path)?;
+    // The spec alone names the output directory, checked before the models are touched.
+    let spec = load_spec(spec_path)?;
     let base = args
         .output
         .clone()
@@ -467,6 +468,8 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     opts.shard = explicit.or(from_slurm);
     opts.progress = std::io::stderr().is_terminal();
     opts.retry_failed = args.retry_failed;
+    crate::sweep::runner::check_output_dir(&opts.output_dir, &spec, opts.shard)?;
+    let (spec, mut sim, plan) = checked_sweep(spec_path)?;
     cancel_on_ctrl_c(opts.cancel.clone());
     if let Some(note) = sim.supercritical_note(&plan.jobs)? {
         eprintln!("[sweep] note: {note}");
