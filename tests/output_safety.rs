@@ -233,10 +233,18 @@ fn merge_refuses_a_shard_given_twice_and_shards_of_different_splits() {
     let err = merge_refused(&[full.clone(), s1.clone()], &out);
     assert_names(&err, &[&name(&full), &name(s1), "the unsharded run"]);
 
-    // The two shards of one split merge into the full plan.
-    let m = merge(&[s1.clone(), s0.clone()], &out).unwrap();
-    assert_eq!((m.found, m.missing.len()), (6, 0));
-    assert!(m.shard_problems.is_empty(), "{:?}", m.shard_problems);
+    // A merge into a shard's directory (whose table it would replace) is refused.
+    let before = snapshot(s1);
+    let err = format!("{:#}", merge(&[s0.clone(), s1.clone()], s1).unwrap_err());
+    assert_names(&err, &[&name(s1), "holds shard 1/2"]);
+    assert_eq!(snapshot(s1), before);
+
+    // The two shards of one split merge into the full plan, and again into the same output.
+    for _ in 0..2 {
+        let m = merge(&[s1.clone(), s0.clone()], &out).unwrap();
+        assert_eq!((m.found, m.missing.len()), (6, 0));
+        assert!(m.shard_problems.is_empty(), "{:?}", m.shard_problems);
+    }
     for d in dirs.iter().chain([&out, &copy, &full]) {
         std::fs::remove_dir_all(d).unwrap();
     }

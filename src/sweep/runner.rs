@@ -599,8 +599,9 @@ pub fn read_manifest_if_any(dir: &Path) -> Result<Option<Manifest>> {
 /// marked incomplete; they do not make this function fail (`rubscan merge` then exits 2).
 ///
 /// Refused before anything is written: a shard directory whose manifest.json exists but
-/// cannot be read, shards of different specs, the same directory or shard given twice, and
-/// shards of different splits.
+/// cannot be read, shards of different specs, the same directory or shard given twice,
+/// shards of different splits, and an output directory holding another sweep's or a shard's
+/// results ([`check_output_dir`]).
 pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     let started_unix_s = now_unix_s();
     let t0 = Instant::now();
@@ -632,6 +633,8 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
         }
     }
     check_shard_set(shard_dirs, &manifests)?;
+    // The merged table is an unsharded run's: its own -o must not hold another's results.
+    check_output_dir(out_dir, &manifest.spec, None)?;
     let plan = plan(&manifest.spec).map_err(|e| anyhow!(e))?;
     std::fs::create_dir_all(checkpoint::jobs_dir(out_dir))
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
