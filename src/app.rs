@@ -680,6 +680,9 @@ pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Re
         }
         Ok(())
     };
+    // Checked before the reduction (seconds), not on the ROM after it.
+    let check_damping =
+        |d: &crate::model::rom::Damping| d.check().with_context(|| spec_path.display().to_string());
     let rom = match format {
         ImportFormat::Calculix => {
             let mut spec: CalculixImportSpec =
@@ -699,6 +702,7 @@ pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Re
                 &spec.dof_map,
                 &spec.mesh,
             ])?;
+            check_damping(&spec.damping)?;
             import_calculix(&spec)?
         }
         ImportFormat::MatrixMarket => {
@@ -719,6 +723,7 @@ pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Re
                 &spec.dof_map,
                 &spec.nodes,
             ])?;
+            check_damping(&spec.damping)?;
             import_matrix_market(&spec)?
         }
     };

@@ -796,7 +796,8 @@ fn model_build_writes_nothing_when_one_model_is_invalid() {
 }
 
 /// `model import` does not write its ROM over one of its inputs (it used to replace the
-/// import spec itself): refused before the import, exit 1, the input unchanged.
+/// import spec itself), and checks its damping before reading the matrices: both refused
+/// before the import, exit 1, the input unchanged.
 #[test]
 fn model_import_refuses_to_write_over_its_inputs() {
     let dir = tmp("importover");
@@ -818,6 +819,20 @@ fn model_import_refuses_to_write_over_its_inputs() {
     }
     assert_eq!(std::fs::read(&spec).unwrap(), before);
     assert!(!dir.join("blade.sti").exists());
+    // Damping is checked before the (absent) matrices are read, not after the reduction.
+    let mut v: serde_json::Value = serde_json::from_slice(&before).unwrap();
+    v["damping"] = serde_json::json!({"modal": {"ratio": 3.0}});
+    std::fs::write(&spec, v.to_string()).unwrap();
+    let st = rubscan()
+        .args(["model", "import", "calculix"])
+        .arg(&spec)
+        .arg("-o")
+        .arg(dir.join("out.rom"))
+        .output()
+        .unwrap();
+    let err = stderr(&st);
+    assert_eq!(st.status.code(), Some(1), "{err}");
+    assert!(err.contains("spec.json: damping: modal ratio 3"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

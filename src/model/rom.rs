@@ -64,6 +64,26 @@ impl Default for Damping {
     }
 }
 
+impl Damping {
+    /// Checks the coefficients: a modal ratio in [0, 1) (1 is critical damping, beyond which
+    /// no mode vibrates), Rayleigh α and β finite and ≥ 0.
+    pub fn check(&self) -> Result<(), RomError> {
+        match *self {
+            Damping::Modal { ratio } if !(ratio.is_finite() && (0.0..1.0).contains(&ratio)) => Err(
+                RomError::Damping(format!("modal ratio {ratio} must be in [0, 1)")),
+            ),
+            Damping::Rayleigh { alpha, beta }
+                if !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0) =>
+            {
+                Err(RomError::Damping(format!(
+                    "Rayleigh coefficients ({alpha}, {beta}) must be finite and non-negative"
+                )))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
 /// A Hermitian matrix stored as its real (symmetric) and imaginary (antisymmetric) parts.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HermitianMatrix {
@@ -439,19 +459,7 @@ impl CyclicRom {
             }
         }
         self.validate_recovery()?;
-        match self.damping {
-            Damping::Modal { ratio } if !(ratio.is_finite() && (0.0..1.0).contains(&ratio)) => Err(
-                RomError::Damping(format!("modal ratio {ratio} must be in [0, 1)")),
-            ),
-            Damping::Rayleigh { alpha, beta }
-                if !(alpha.is_finite() && beta.is_finite() && alpha >= 0.0 && beta >= 0.0) =>
-            {
-                Err(RomError::Damping(format!(
-                    "Rayleigh coefficients ({alpha}, {beta}) must be finite and non-negative"
-                )))
-            }
-            _ => Ok(()),
-        }
+        self.damping.check()
     }
 }
 
