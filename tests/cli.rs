@@ -286,21 +286,13 @@ fn run_to(spec: &Path, out: &Path) -> (Option<i32>, String) {
     )
 }
 
-/// Each invalid spec is refused by `plan` and `run` with exit status 1 within 5 s, its
-/// stderr names the JSON path or field and the reason, and no output directory appears.
-#[test]
-fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
-    let dir = tmp("invalid");
-    std::fs::create_dir_all(&dir).unwrap();
-    // Warm the model cache (a fresh machine builds the small models once, in seconds).
-    let warm = rubscan().args(["plan", SMALL]).output().unwrap();
-    assert!(
-        warm.status.success(),
-        "{}",
-        String::from_utf8_lossy(&warm.stderr)
-    );
-    type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &[&str]); 18] = [
+/// An edit of the small sweep's JSON.
+type Edit = fn(&mut serde_json::Value);
+
+/// The invalid specs of [`invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing`]:
+/// a tag, the edit of the small sweep that breaks it, and what the error must say.
+fn invalid_spec_cases() -> [(&'static str, Edit, &'static [&'static str]); 18] {
+    [
         (
             "probe_typo",
             |v| v["scenario"]["probes"] = serde_json::json!([{"nod": 5, "quantity": "gap"}]),
@@ -429,8 +421,23 @@ fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
             |v| v["scenario"]["duration_s"] = serde_json::json!(1e300),
             &["/scenario/duration_s", "steps per job", "1e9"],
         ),
-    ];
-    for (tag, edit, expect) in cases {
+    ]
+}
+
+/// Each invalid spec is refused by `plan` and `run` with exit status 1 within 5 s, its
+/// stderr names the JSON path or field and the reason, and no output directory appears.
+#[test]
+fn invalid_specs_exit_1_fast_naming_path_and_reason_and_write_nothing() {
+    let dir = tmp("invalid");
+    std::fs::create_dir_all(&dir).unwrap();
+    // Warm the model cache (a fresh machine builds the small models once, in seconds).
+    let warm = rubscan().args(["plan", SMALL]).output().unwrap();
+    assert!(
+        warm.status.success(),
+        "{}",
+        String::from_utf8_lossy(&warm.stderr)
+    );
+    for (tag, edit, expect) in invalid_spec_cases() {
         let spec = small_with(&dir, tag, edit);
         for cmd in ["plan", "run"] {
             let out = dir.join(format!("out-{tag}-{cmd}"));

@@ -567,86 +567,7 @@ impl SweepSpec {
         self.validate_numerics(&mut issues);
         self.validate_applicability(&mut issues);
         self.validate_speed(&mut issues);
-        check_list(
-            &mut issues,
-            "/grid/friction",
-            &self.grid.friction,
-            true,
-            "friction coefficient",
-        );
-        for (i, &mu) in self.grid.friction.iter().enumerate() {
-            if mu > MAX_FRICTION {
-                issues.push(SpecIssue {
-                    path: format!("/grid/friction/{i}"),
-                    reason: format!(
-                        "μ = {mu} is not a physical Coulomb coefficient: the bound is {MAX_FRICTION} \
-                         (measured blade/casing and blade/abradable pairs lie in 0.05–0.8)"
-                    ),
-                });
-            }
-        }
-        if let Some(c) = &self.grid.clearance_m {
-            check_list(&mut issues, "/grid/clearance_m", c, true, "clearance");
-        }
-        if let Some(c) = &self.grid.coating {
-            let axes = [
-                ("young", &c.young),
-                ("hardening", &c.hardening),
-                ("yield_stress", &c.yield_stress),
-                ("thickness", &c.thickness),
-            ];
-            if axes.iter().all(|(_, a)| a.is_none()) {
-                issues.push(SpecIssue {
-                    path: "/grid/coating".into(),
-                    reason: "coating grid names no property".into(),
-                });
-            }
-            for (name, axis) in axes {
-                match axis {
-                    Some(CoatingAxis::Values(v)) => check_list(
-                        &mut issues,
-                        &format!("/grid/coating/{name}/values"),
-                        v,
-                        false,
-                        "coating value",
-                    ),
-                    Some(CoatingAxis::Scale(v)) => check_list(
-                        &mut issues,
-                        &format!("/grid/coating/{name}/scale"),
-                        v,
-                        false,
-                        "scale factor",
-                    ),
-                    None => {}
-                }
-            }
-        }
-        self.validate_zip(&mut issues);
-        let jobs = self.grid.job_count();
-        if jobs > MAX_JOBS {
-            issues.push(SpecIssue {
-                path: "/grid".into(),
-                reason: format!(
-                    "the grid expands into {} jobs, more than the {MAX_JOBS} a sweep may hold \
-                     (the product of its axis lengths, zipped axes counted once)",
-                    if jobs == u64::MAX {
-                        "over 1.8e19".into()
-                    } else {
-                        jobs.to_string()
-                    }
-                ),
-            });
-        }
-        if let Some(h) = self.numerics.time_step {
-            // A step under 1 ns would resolve modes above 100 MHz, no structure's: the step is
-            // the mistake then, else the duration.
-            let field = if h < 1e-9 {
-                "/numerics/time_step_s"
-            } else {
-                "/scenario/duration_s"
-            };
-            self.check_step_count(&mut issues, h, field);
-        }
+        self.validate_grid(&mut issues);
         if let Some(limit) = self.job_time_limit_s {
             check_positive(&mut issues, "/job_time_limit_s", limit, " s");
         }
@@ -769,10 +690,93 @@ impl SweepSpec {
         }
     }
 
+    /// The grid's axes (lists of physical values, a coating grid naming a property), its
+    /// zipped axes and the number of jobs it expands into ([`MAX_JOBS`]).
+    fn validate_grid(&self, issues: &mut Vec<SpecIssue>) {
+        check_list(
+            issues,
+            "/grid/friction",
+            &self.grid.friction,
+            true,
+            "friction coefficient",
+        );
+        for (i, &mu) in self.grid.friction.iter().enumerate() {
+            if mu > MAX_FRICTION {
+                issues.push(SpecIssue {
+                    path: format!("/grid/friction/{i}"),
+                    reason: format!(
+                        "μ = {mu} is not a physical Coulomb coefficient: the bound is {MAX_FRICTION} \
+                         (measured blade/casing and blade/abradable pairs lie in 0.05–0.8)"
+                    ),
+                });
+            }
+        }
+        if let Some(c) = &self.grid.clearance_m {
+            check_list(issues, "/grid/clearance_m", c, true, "clearance");
+        }
+        if let Some(c) = &self.grid.coating {
+            let axes = [
+                ("young", &c.young),
+                ("hardening", &c.hardening),
+                ("yield_stress", &c.yield_stress),
+                ("thickness", &c.thickness),
+            ];
+            if axes.iter().all(|(_, a)| a.is_none()) {
+                issues.push(SpecIssue {
+                    path: "/grid/coating".into(),
+                    reason: "coating grid names no property".into(),
+                });
+            }
+            for (name, axis) in axes {
+                match axis {
+                    Some(CoatingAxis::Values(v)) => check_list(
+                        issues,
+                        &format!("/grid/coating/{name}/values"),
+                        v,
+                        false,
+                        "coating value",
+                    ),
+                    Some(CoatingAxis::Scale(v)) => check_list(
+                        issues,
+                        &format!("/grid/coating/{name}/scale"),
+                        v,
+                        false,
+                        "scale factor",
+                    ),
+                    None => {}
+                }
+            }
+        }
+        self.validate_zip(issues);
+        let jobs = self.grid.job_count();
+        if jobs > MAX_JOBS {
+            issues.push(SpecIssue {
+                path: "/grid".into(),
+                reason: format!(
+                    "the grid expands into {} jobs, more than the {MAX_JOBS} a sweep may hold \
+                     (the product of its axis lengths, zipped axes counted once)",
+                    if jobs == u64::MAX {
+                        "over 1.8e19".into()
+                    } else {
+                        jobs.to_string()
+                    }
+                ),
+            });
+        }
+    }
+
     fn validate_numerics(&self, issues: &mut Vec<SpecIssue>) {
         let n = &self.numerics;
         if let Some(h) = n.time_step {
             check_positive(issues, "/numerics/time_step_s", h, " s");
+            // A step under 1 ns would resolve modes above 100 MHz, no structure's: the step is
+            // the mistake then, else the duration.
+            let field = if h < 1e-9 {
+                "/numerics/time_step_s"
+            } else {
+                "/scenario/duration_s"
+            };
+            self.check_step_count(issues, h, field);
         }
         if let Some(f) = n.mode_cutoff_hz {
             check_positive(issues, "/numerics/mode_cutoff_hz", f, " Hz");
