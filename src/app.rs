@@ -110,16 +110,14 @@ pub(crate) fn load_resolved(spec_path: &Path) -> Result<ResolvedSweep, SpecError
     resolve(&load_spec(spec_path)?)
 }
 
-/// The spec at `spec_path` checked as a whole, as `plan`, `run` and `slurm` check it before
-/// anything runs or is written: validated with its models, planned, and every job's coating
-/// within the limits of the explicit scheme ([`ModelSimulator::check_coating_limits`]).
-fn checked_sweep(spec_path: &Path) -> Result<(SweepSpec, ModelSimulator, Plan), AppError> {
-    let resolved = load_resolved(spec_path)?;
-    let spec = resolved.spec.clone();
-    let plan = plan(&spec)?;
-    let sim = ModelSimulator::from_resolved(resolved)?;
+/// `spec` checked as a whole, as `plan`, `run` and `slurm` check it before anything runs or
+/// is written: validated with its models, planned, and every job's coating within the limits
+/// of the explicit scheme ([`ModelSimulator::check_coating_limits`]).
+fn checked_sweep(spec: &SweepSpec) -> Result<(ModelSimulator, Plan), AppError> {
+    let plan = plan(spec)?;
+    let sim = ModelSimulator::from_resolved(resolve(spec)?)?;
     sim.check_coating_limits(&plan.jobs)?;
-    Ok((spec, sim, plan))
+    Ok((sim, plan))
 }
 
 /// `rubscan model info`: a human-readable summary of a ROM file (sizes, frequencies per
@@ -379,7 +377,7 @@ pub fn simulate(
 /// `rubscan plan`: the jobs of a sweep with their resolved parameters and the work estimate,
 /// after validating the whole spec with its models.
 pub fn plan_text(spec_path: &Path) -> Result<String, AppError> {
-    let (_, _, plan) = checked_sweep(spec_path)?;
+    let (_, plan) = checked_sweep(&load_spec(spec_path)?)?;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -469,7 +467,7 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     opts.progress = std::io::stderr().is_terminal();
     opts.retry_failed = args.retry_failed;
     crate::sweep::runner::check_output_dir(&opts.output_dir, &spec, opts.shard)?;
-    let (spec, mut sim, plan) = checked_sweep(spec_path)?;
+    let (mut sim, plan) = checked_sweep(&spec)?;
     cancel_on_ctrl_c(opts.cancel.clone());
     if let Some(note) = sim.supercritical_note(&plan.jobs)? {
         eprintln!("[sweep] note: {note}");
@@ -621,7 +619,8 @@ pub struct SlurmArgs {
 /// beside the output directory, and prints the sbatch commands, or submits them and prints
 /// the job ids.
 pub fn slurm(spec_path: &Path, args: &SlurmArgs) -> Result<String, AppError> {
-    let (spec, _, plan) = checked_sweep(spec_path)?;
+    let spec = load_spec(spec_path)?;
+    let (_, plan) = checked_sweep(&spec)?;
     let absolute = |p: &Path| {
         std::path::absolute(p).with_context(|| format!("cannot make {} absolute", p.display()))
     };
