@@ -13,6 +13,7 @@
 //! above it, and the energy the structures hold is compared with the work the rotation did
 //! through the contact forces.
 
+use rubscan::dynamics::RunSummary;
 use rubscan::dynamics::recorder::SeriesRecorder;
 use rubscan::dynamics::structure::Structure;
 use rubscan::sweep::{parse_spec, plan};
@@ -28,6 +29,30 @@ fn case_study_2_at(omega: f64, duration: f64) -> Value {
     v
 }
 
+/// The case study 2 scenario with `lobes` lobes, with or without the nominal coating, and
+/// with the runaway watch on or off.
+fn scenario(omega: f64, duration: f64, lobes: u32, coated: bool, watch: bool) -> Value {
+    let mut v = case_study_2_at(omega, duration);
+    v["scenario"]["lobes"] = lobes.into();
+    if coated {
+        v["scenario"]["coating"] = serde_json::json!({});
+    }
+    v["numerics"]["stop_on_runaway"] = watch.into();
+    v
+}
+
+/// Runs the spec `v`'s single job, keeping the samples recorded before an error.
+fn run_spec(v: &Value) -> (SimulationOutput, Result<RunSummary, SimError>) {
+    let spec = parse_spec(&v.to_string()).unwrap();
+    let sim = ModelSimulator::new(&spec).unwrap();
+    let (case, casing, _) = sim.case_for_job(&plan(&spec).unwrap().jobs[0]).unwrap();
+    let mut rec = SeriesRecorder::default();
+    let result = Simulation::new(&case, sim.impeller(), &casing)
+        .unwrap()
+        .run(&mut rec, None);
+    (rec.out, result)
+}
+
 /// The casing's critical wave speed (rad/s) and its nodal diameter, from its ROM alone.
 fn casing_critical_speed() -> (f64, usize) {
     let spec = parse_spec(&case_study_2_at(1000.0, 1e-2).to_string()).unwrap();
@@ -41,16 +66,10 @@ fn casing_critical_speed() -> (f64, usize) {
         .unwrap()
 }
 
-/// Runs the scenario at `omega` for `duration`, keeping the samples recorded before an error.
+/// Runs the five-lobe scenario at `omega` for `duration` without the runaway watch, keeping
+/// the samples recorded before an error.
 fn run(omega: f64, duration: f64) -> (SimulationOutput, Option<SimError>) {
-    let spec = parse_spec(&case_study_2_at(omega, duration).to_string()).unwrap();
-    let sim = ModelSimulator::new(&spec).unwrap();
-    let (case, casing, _) = sim.case_for_job(&plan(&spec).unwrap().jobs[0]).unwrap();
-    let mut rec = SeriesRecorder::default();
-    let result = Simulation::new(&case, sim.impeller(), &casing)
-        .unwrap()
-        .run(&mut rec, None);
-    let out = rec.out;
+    let (out, result) = run_spec(&scenario(omega, duration, 5, false, false));
     (out, result.err())
 }
 
@@ -114,4 +133,94 @@ fn the_casing_response_grows_above_its_critical_wave_speed_and_decays_below() {
             "{msg}"
         );
     }
+}
+
+/// The energy at the first sample at or after `t` (J).
+fn energy_at(out: &SimulationOutput, t: f64) -> f64 {
+    energy(out, out.time.iter().position(|&x| x >= t).unwrap())
+}
+
+/// A runaway is called, and the job stopped, before its contact solve gives up; a job that
+/// rings down is never called: on each side of the critical wave speed, with and without the
+/// coating, for two and five lobes. Whether a case runs away is the simulation's own answer
+/// (run again without the watch: it fails or keeps growing); the watch must agree with it.
+#[test]
+fn runaways_are_called_before_the_solve_gives_up_and_ring_downs_never() {
+    let (omega_c, k) = casing_critical_speed();
+    let t_f = 4e-3;
+    let mut unstable = vec![];
+    for (lobes, coated, side) in [2u32, 5]
+        .into_iter()
+        .flat_map(|l| [(l, false), (l, true)])
+        .flat_map(|(l, c)| [(l, c, 0.95), (l, c, 1.10)])
+    {
+        let label = format!("{lobes} lobes, coated {coated}, {side} Ω_c");
+        let omega = side * omega_c;
+        let (out, watched) = run_spec(&scenario(omega, 16e-3, lobes, coated, true));
+        let summary = watched.unwrap_or_else(|e| panic!("{label}: the solve gave up first: {e}"));
+        match summary.runaway {
+            None => {
+                // Ran to the end unwatched in effect (the watch never feeds back): it rang down.
+                assert_eq!(summary.steps_run, summary.n_steps, "{label}");
+                let (release, end) = (energy_at(&out, t_f), energy(&out, out.time.len() - 1));
+                println!("{label}: ok, energy {release:.3e} J at release, {end:.3e} J at the end");
+                assert!(
+                    end < 0.5 * release,
+                    "{label}: not a ring-down but not called"
+                );
+            }
+            Some(r) => {
+                let stop = r.detected_time_s;
+                println!(
+                    "{label}: unstable at {:.2} ms (onset {:.2} ms), σ = {:.0} 1/s (R² {:.2}), \
+                     nodal diameter {:?}, {:?} Hz, forward {:?}, {:?} Hz in the rotating \
+                     frame, {} of {} steps run",
+                    stop * 1e3,
+                    r.onset_time_s * 1e3,
+                    r.growth_rate_per_s,
+                    r.growth_fit_r2,
+                    r.nodal_diameter,
+                    r.frequency_hz,
+                    r.forward,
+                    r.rotating_frame_frequency_hz,
+                    summary.steps_run,
+                    summary.n_steps
+                );
+                assert!(summary.steps_run < summary.n_steps, "{label}");
+                assert!(
+                    r.growth_rate_per_s > 0.0 && r.growth_fit_r2 >= 0.8,
+                    "{label}"
+                );
+                // Unwatched, the same job grows on until its solve gives up, or by another
+                // decade of energy by the end: the call was a true runaway, made in time.
+                let (raw, result) = run_spec(&scenario(omega, 16e-3, lobes, coated, false));
+                let last = raw.time.len() - 1;
+                let grew = energy(&raw, last) > 10.0 * energy_at(&raw, stop);
+                assert!(
+                    result.is_err() || grew,
+                    "{label}: unwatched it did not run away"
+                );
+                assert!(raw.time[last] > stop, "{label}");
+                unstable.push((lobes, coated, side, r));
+            }
+        }
+    }
+    // The five-lobe load above the critical wave speed feeds the casing's wave of the
+    // critical nodal diameter, coated or not: a forward wave in the fixed frame dragged along
+    // by the rotating contact (its speed ω/k within 5 % of Ω).
+    for coated in [false, true] {
+        let (_, _, side, r) = unstable
+            .iter()
+            .find(|u| u.0 == 5 && u.1 == coated && u.2 > 1.0)
+            .unwrap_or_else(|| panic!("5 lobes, coated {coated}, above Ω_c: not called"));
+        assert_eq!(r.nodal_diameter, Some(k as u32));
+        assert_eq!(r.forward, Some(true));
+        let wave_speed = std::f64::consts::TAU * r.frequency_hz.unwrap() / k as f64;
+        let omega = side * omega_c;
+        assert!(
+            (wave_speed / omega - 1.0).abs() < 0.05,
+            "{wave_speed} vs {omega}"
+        );
+    }
+    assert!(unstable.iter().all(|u| u.2 > 1.0), "a runaway below Ω_c");
 }

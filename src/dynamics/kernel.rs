@@ -21,6 +21,13 @@ pub struct Energies {
     pub strain: f64,
 }
 
+impl Energies {
+    /// Vibration energy `T + V` (J).
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.strain
+    }
+}
+
 /// A central-difference kernel for one structure.
 pub trait StructureKernel {
     /// Number of sectors N.

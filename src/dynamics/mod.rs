@@ -22,6 +22,7 @@ pub mod modal;
 pub mod numerics;
 pub mod probes;
 pub mod recorder;
+pub mod runaway;
 pub mod scenario;
 pub mod simulate;
 pub mod structure;

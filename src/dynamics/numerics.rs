@@ -95,6 +95,16 @@ pub struct Numerics {
     /// their parameters) do not change and their results still resume.
     #[serde(skip_serializing_if = "Boundary::is_mass")]
     pub boundary: Boundary,
+    /// Whether a run stops as soon as a runaway is confirmed (default true): the structures'
+    /// energy growing exponentially, fed by the rotation, after the load's ramp
+    /// ([`crate::dynamics::runaway`]). The run then ends with its finding instead of growing
+    /// until the contact solve gives up. Not written when true (job ids unchanged).
+    #[serde(skip_serializing_if = "is_true")]
+    pub stop_on_runaway: bool,
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 impl Default for Numerics {
@@ -106,6 +116,7 @@ impl Default for Numerics {
             kernel: KernelChoice::Fast,
             decimation: 10,
             boundary: Boundary::Mass,
+            stop_on_runaway: true,
         }
     }
 }

@@ -206,6 +206,10 @@ pub struct RunSummary {
     pub stage_seconds: StageSeconds,
     /// The coating's final state (`None` without a coating).
     pub coating: Option<CoatingOutput>,
+    /// Time steps actually run: `n_steps`, or fewer when a runaway stopped the run.
+    pub steps_run: usize,
+    /// The runaway that stopped the run early (`numerics.stop_on_runaway`), if any.
+    pub runaway: Option<crate::dynamics::runaway::Runaway>,
 }
 
 // ---------------------------------------------------------------------------------------

@@ -1,0 +1,401 @@
+//! Online detection of a runaway: the structures' vibration energy growing exponentially,
+//! fed by the work of the imposed rotation, after the external load has stopped growing.
+//!
+//! Above a flexible casing's critical wave speed a closed rotating contact can feed the
+//! casing's backward waves with the rotation's energy (the moving-load instability: Iwan &
+//! Moeller 1976, rotor and stator exchanged; `tests/supercritical.rs`). The simulation then
+//! grows until the contact solve gives up. That growth is the answer a scan asks for, so it
+//! is detected while it happens and the job stops with its figures.
+//!
+//! # Criterion
+//! The energy `E(t)` (kinetic + strain, both structures) is reduced to its envelope: the
+//! largest sample of each block of one period `T_w` of the wave that can grow (the casing's
+//! critical wave, else the impeller's slowest mode). From the end of the load's ramp on, the
+//! blocks since the lowest one so far (the onset candidate) are kept; a runaway is confirmed
+//! when, over those blocks,
+//! 1. at least [`MIN_PERIODS`] periods have passed (several periods of the growing wave),
+//! 2. the envelope grew by at least [`MIN_ENERGY_GROWTH`] and the last block is the largest,
+//! 3. `ln E` fits a straight line in time with `R² ≥` [`MIN_FIT_R2`] (exponential growth),
+//! 4. the second half's slope is at least [`MIN_SLOPE_RATIO`] of the first half's: the
+//!    growth does not slow down (a forced or beating build-up from a small amplitude, or
+//!    one that saturates into a limit cycle, decelerates; a runaway does not),
+//! 5. the rotation did at least the energy gained through the contact forces (the growth is
+//!    fed by the drive, not by a load).
+//!
+//! A ring-down never passes 2 (its last block is its lowest), so it is never called unstable.
+//! The amplitude growth rate is half the fitted slope of `ln E`.
+//!
+//! The wave's nodal diameter and frequency come from [`WaveTracker`], which follows the
+//! phase of one casing harmonic on the contact surface once the envelope has doubled.
+
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// Fewest wave periods between the onset and the confirmation of a runaway.
+pub const MIN_PERIODS: usize = 6;
+/// Smallest energy growth (ratio of envelopes) that confirms a runaway: an amplitude growth
+/// of √10 ≈ 3.2.
+pub const MIN_ENERGY_GROWTH: f64 = 10.0;
+/// Smallest coefficient of determination of the exponential fit of the envelope.
+pub const MIN_FIT_R2: f64 = 0.8;
+/// Smallest ratio of the second half's growth rate to the first half's. An algebraic build-up
+/// `E ∝ t²` from rest (a forced response, or beats from a node) gives at most 0.57 over a
+/// decade of growth, and less over more; the runaways of case study 2 give 0.9 to 3.9.
+pub const MIN_SLOPE_RATIO: f64 = 0.7;
+/// Envelope growth (ratio) above which the wave's phase is tracked.
+const ARM_GROWTH: f64 = 2.0;
+/// Most blocks kept since the onset candidate (bounded memory on a long bounded response).
+const MAX_BLOCKS: usize = 4096;
+
+/// A runaway detected by [`RunawayMonitor`]: when it started, how fast it grew and which wave.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Runaway {
+    /// Onset (s): the time of the lowest energy envelope block before the growth.
+    pub onset_time_s: f64,
+    /// Time (s) at which the runaway was confirmed and the simulation stopped.
+    pub detected_time_s: f64,
+    /// Amplitude growth rate σ (1/s): half the fitted slope of `ln E` over onset → detection.
+    pub growth_rate_per_s: f64,
+    /// Coefficient of determination R² of that exponential fit, in [0, 1].
+    pub growth_fit_r2: f64,
+    /// Growth of the energy envelope from the onset to the detection (ratio ≥ 10).
+    pub energy_growth: f64,
+    /// Work (J) the rotation did through the contact forces from the onset to the detection.
+    pub drive_work_j: f64,
+    /// Nodal diameter of the growing wave: the casing's harmonic holding the most strain
+    /// energy at detection (the impeller's for a rigid casing).
+    pub nodal_diameter: Option<u32>,
+    /// Frequency (Hz, fixed frame, ≥ 0) of the growing casing wave, from its phase rate on
+    /// the contact surface; `None` without a flexible casing or when too few samples were
+    /// tracked.
+    pub frequency_hz: Option<f64>,
+    /// Whether the casing wave travels in the sense of rotation in the fixed frame; `None` as
+    /// above. Above the critical wave speed the wave that grows is the casing's forward wave
+    /// dragged along by the rotating contact: backward in the rotating frame when slower
+    /// than the blades (Iwan & Moeller's anomalous Doppler wave, frames exchanged).
+    pub forward: Option<bool>,
+    /// Its frequency in the rotating frame (Hz, signed: positive when it travels ahead of the
+    /// blades), `f − kΩ/2π` for a forward wave of nodal diameter k; `None` as above.
+    pub rotating_frame_frequency_hz: Option<f64>,
+}
+
+/// One block of the energy envelope.
+#[derive(Debug, Clone, Copy)]
+struct Block {
+    /// Block index `⌊(t − start) / T_w⌋`.
+    index: i64,
+    /// Largest energy (J) of the block, and the time (s) at which it was reached.
+    energy: f64,
+    time: f64,
+    /// Drive work (J) at the block's last sample.
+    drive_work: f64,
+}
+
+/// A confirmed exponential growth of the energy envelope (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Growth {
+    /// Onset (s): the time of the lowest envelope block before the growth.
+    pub onset_time_s: f64,
+    /// Time (s) of the sample that confirmed the growth.
+    pub detected_time_s: f64,
+    /// Fitted slope of `ln E` (1/s): twice the amplitude growth rate.
+    pub energy_rate_per_s: f64,
+    /// R² of that fit.
+    pub fit_r2: f64,
+    /// Envelope ratio from the onset block to the last one.
+    pub energy_growth: f64,
+    /// Drive work (J) from the onset block to the last one.
+    pub drive_work_j: f64,
+}
+
+/// Watches the energy of a running simulation for a runaway (module doc).
+#[derive(Debug, Clone)]
+pub struct RunawayMonitor {
+    period: f64,
+    start: f64,
+    current: Option<Block>,
+    /// Finished blocks since the lowest one (its front), in time order.
+    blocks: VecDeque<Block>,
+    closed: u64,
+}
+
+impl RunawayMonitor {
+    /// A monitor with envelope blocks of `period` (s, one period of the wave that can grow)
+    /// that starts watching at `start` (s, the end of the external load's ramp).
+    pub fn new(period: f64, start: f64) -> Self {
+        Self {
+            period,
+            start,
+            current: None,
+            blocks: VecDeque::new(),
+            closed: 0,
+        }
+    }
+
+    /// Takes the sample at time `t` (s): vibration energy `energy` (J) of both structures and
+    /// the drive work (J) so far. Returns the growth when this sample confirms a runaway.
+    pub fn observe(&mut self, t: f64, energy: f64, drive_work: f64) -> Option<Growth> {
+        if t < self.start || !(self.period > 0.0) {
+            return None;
+        }
+        let index = ((t - self.start) / self.period).floor() as i64;
+        if let Some(b) = self.current.as_mut().filter(|b| b.index == index) {
+            if energy > b.energy {
+                (b.energy, b.time) = (energy, t);
+            }
+            b.drive_work = drive_work;
+            return None;
+        }
+        let done = self.current.replace(Block {
+            index,
+            energy,
+            time: t,
+            drive_work,
+        })?;
+        self.push(done);
+        self.closed += 1;
+        self.confirmed()
+    }
+
+    /// Whether the envelope has grown by [`ARM_GROWTH`] since its lowest block: a candidate
+    /// runaway whose wave is worth tracking.
+    pub fn armed(&self) -> bool {
+        match (self.blocks.front(), self.blocks.back()) {
+            (Some(lo), Some(hi)) => hi.energy >= ARM_GROWTH * lo.energy,
+            _ => false,
+        }
+    }
+
+    /// Envelope blocks closed so far (a caller refreshes what it tracks when this changes).
+    pub fn closed_blocks(&self) -> u64 {
+        self.closed
+    }
+
+    fn push(&mut self, done: Block) {
+        if self.blocks.front().is_none_or(|lo| done.energy < lo.energy) {
+            self.blocks.clear();
+        }
+        self.blocks.push_back(done);
+        if self.blocks.len() > MAX_BLOCKS {
+            // Keep the lowest of what is left as the front, as the criterion assumes.
+            self.blocks.pop_front();
+            let lowest = (0..self.blocks.len())
+                .min_by(|&a, &b| self.blocks[a].energy.total_cmp(&self.blocks[b].energy))
+                .unwrap_or(0);
+            self.blocks.drain(..lowest);
+        }
+    }
+
+    /// The growth when the blocks kept pass every test of the criterion.
+    fn confirmed(&self) -> Option<Growth> {
+        let (lo, hi) = (self.blocks.front()?, self.blocks.back()?);
+        if self.blocks.len() <= MIN_PERIODS || !(hi.energy >= MIN_ENERGY_GROWTH * lo.energy) {
+            return None;
+        }
+        if self.blocks.iter().any(|b| b.energy > hi.energy) {
+            return None;
+        }
+        let gained = hi.energy - lo.energy;
+        let fed = hi.drive_work - lo.drive_work;
+        if fed < gained {
+            return None;
+        }
+        let all: Vec<(f64, f64)> = self
+            .blocks
+            .iter()
+            .map(|b| (b.time, b.energy.ln()))
+            .collect();
+        let (slope, r2) = line_fit(&all)?;
+        let half = all.len() / 2;
+        let (early_slope, _) = line_fit(&all[..=half])?;
+        let (late_slope, _) = line_fit(&all[half..])?;
+        if !(slope > 0.0 && r2 >= MIN_FIT_R2 && late_slope >= MIN_SLOPE_RATIO * early_slope) {
+            return None;
+        }
+        Some(Growth {
+            onset_time_s: lo.time,
+            detected_time_s: hi.time,
+            energy_rate_per_s: slope,
+            fit_r2: r2,
+            energy_growth: hi.energy / lo.energy,
+            drive_work_j: fed,
+        })
+    }
+}
+
+/// Least-squares line through `(x, y)` points: its slope and its R² (`None` for fewer than
+/// three points or no spread in x or y).
+fn line_fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let n = points.len() as f64;
+    if points.len() < 3 {
+        return None;
+    }
+    let (mx, my) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for (x, y) in points {
+        let (dx, dy) = (x - mx, y - my);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+    }
+    if !(sxx > 0.0 && syy > 0.0) {
+        return None;
+    }
+    Some((sxy / sxx, sxy * sxy / (sxx * syy)))
+}
+
+/// Follows the phase of one casing harmonic on the contact surface: the complex amplitude
+/// `c_k(t) = Σ_s u_r(s) e^{−ikθ_s}` of nodal diameter k of one row's radial displacement.
+/// A wave `u_r = A cos(kθ − ψ(t))` gives `c_k ∝ e^{−iψ}`: the wave travels toward +θ (with a
+/// counter-clockwise rotation, forward) when `ψ` grows, and its fixed-frame frequency is
+/// `|dψ/dt| / 2π`.
+#[derive(Debug, Clone, Default)]
+pub struct WaveTracker {
+    /// The nodal diameter and casing row followed (`None`: nothing followed yet).
+    pub target: Option<(usize, usize)>,
+    first: Option<(f64, f64)>,
+    last: Option<(f64, f64)>,
+    /// Unwrapped phase ψ (rad) since the first sample.
+    unwrapped: f64,
+}
+
+impl WaveTracker {
+    /// Follows nodal diameter `k` on casing row `row` from now on (a new target restarts).
+    pub fn follow(&mut self, k: usize, row: usize) {
+        if self.target != Some((k, row)) {
+            *self = Self {
+                target: Some((k, row)),
+                ..Self::default()
+            };
+        }
+    }
+
+    /// Takes the harmonic's complex amplitude `(re, im)` at time `t` (s). Samples must come
+    /// more often than twice per wave period (the phase is unwrapped between them).
+    pub fn observe(&mut self, t: f64, re: f64, im: f64) {
+        let psi = -im.atan2(re);
+        match self.last {
+            None => self.first = Some((t, psi)),
+            Some((_, prev)) => {
+                let mut d = psi - prev;
+                d -= std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
+                self.unwrapped += d;
+            }
+        }
+        self.last = Some((t, psi));
+    }
+
+    /// The phase rate dψ/dt (rad/s) since the first sample: positive for a wave travelling
+    /// toward +θ. `None` before two samples.
+    pub fn phase_rate(&self) -> Option<f64> {
+        let ((t0, _), (t1, _)) = (self.first?, self.last?);
+        (t1 > t0).then(|| self.unwrapped / (t1 - t0))
+    }
+}
+
+/// The casing harmonic `c_k = Σ_s u_s e^{−ikθ_s}` (`θ_s = 2πs/N`) of the values `u_s` of one
+/// row over the N sectors, as `(re, im)`.
+pub fn sector_harmonic(values: impl ExactSizeIterator<Item = f64>, k: usize) -> (f64, f64) {
+    let n = values.len() as f64;
+    values.enumerate().fold((0.0, 0.0), |(re, im), (s, u)| {
+        let th = std::f64::consts::TAU * (k * s) as f64 / n;
+        (re + u * th.cos(), im - u * th.sin())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::TAU;
+
+    /// Feeds `energy(t)` (with a drive work that always covers it) sampled every `dt` up to
+    /// `t_end`; returns the growth that confirmed a runaway, if any.
+    fn watch(energy: impl Fn(f64) -> f64, period: f64, dt: f64, t_end: f64) -> Option<Growth> {
+        let mut m = RunawayMonitor::new(period, 0.0);
+        let n = (t_end / dt) as usize;
+        (0..=n).find_map(|i| {
+            let t = i as f64 * dt;
+            m.observe(t, energy(t), 1e3 * energy(t))
+        })
+    }
+
+    /// An oscillating energy (a standing wave exchanges kinetic and strain energy twice per
+    /// period) under an envelope `env`.
+    fn wave(env: impl Fn(f64) -> f64, f: f64) -> impl Fn(f64) -> f64 {
+        move |t| env(t) * (1.0 + 0.3 * (2.0 * TAU * f * t).cos())
+    }
+
+    #[test]
+    fn an_exponential_growth_is_confirmed_with_its_rate() {
+        let (f, sigma) = (3500.0, 300.0);
+        let g = watch(wave(|t| (2.0 * sigma * t).exp(), f), 1.0 / f, 1e-6, 0.05).unwrap();
+        let measured = 0.5 * g.energy_rate_per_s;
+        assert!(
+            (measured - sigma).abs() < 0.03 * sigma,
+            "{measured} vs {sigma}"
+        );
+        assert!(
+            g.fit_r2 > 0.99 && g.energy_growth >= MIN_ENERGY_GROWTH,
+            "{g:?}"
+        );
+        // Confirmed as soon as the energy grew tenfold (ln 10 / 2σ ≈ 3.8 ms), not much later.
+        let t10 = 10f64.ln() / (2.0 * sigma);
+        assert!(g.detected_time_s < t10 + 3.0 / f, "{g:?}");
+    }
+
+    #[test]
+    fn a_ring_down_is_never_called() {
+        let f = 3500.0;
+        assert!(watch(wave(|t| (-50.0 * t).exp(), f), 1.0 / f, 1e-6, 0.1).is_none());
+        // A ring-down with beats (two close frequencies) neither.
+        let beat = |t: f64| (-30.0 * t).exp() * (1.0 + (TAU * 200.0 * t).cos()).max(1e-9);
+        assert!(watch(wave(beat, f), 1.0 / f, 1e-6, 0.1).is_none());
+    }
+
+    #[test]
+    fn a_build_up_that_slows_down_is_not_a_runaway() {
+        let f = 3500.0;
+        // Forced resonance from rest, E ∝ (1 − e^{−ζωt})²: grows by decades, then saturates.
+        let forced = |t: f64| (1.0 - (-40.0 * t).exp()).powi(2) + 1e-12;
+        assert!(watch(wave(forced, f), 1.0 / f, 1e-6, 0.2).is_none());
+        // Undamped build-up, E ∝ t² from a small start: algebraic, decelerating in ln E.
+        let algebraic = |t: f64| (1e-4 + t).powi(2);
+        assert!(watch(wave(algebraic, f), 1.0 / f, 1e-6, 0.2).is_none());
+        // An exponential growth into a limit cycle: called only if it is confirmed before
+        // it saturates, which takes a decade of growth at a steady rate (here it stops at 4×).
+        let limit = |t: f64| (2.0 * 300.0 * t).exp().min(4.0);
+        assert!(watch(wave(limit, f), 1.0 / f, 1e-6, 0.2).is_none());
+    }
+
+    #[test]
+    fn growth_fed_by_something_else_than_the_drive_is_not_a_runaway() {
+        let f = 3500.0;
+        let mut m = RunawayMonitor::new(1.0 / f, 0.0);
+        let e = wave(|t| (600.0 * t).exp(), f);
+        let called = (0..50_000).find_map(|i| {
+            let t = i as f64 * 1e-6;
+            m.observe(t, e(t), 0.0)
+        });
+        assert!(called.is_none());
+    }
+
+    #[test]
+    fn the_tracker_gives_the_signed_phase_rate_of_a_travelling_wave() {
+        let (n, k, f) = (100, 5, 3400.0);
+        for dir in [1.0, -1.0] {
+            let mut tr = WaveTracker::default();
+            tr.follow(k, 4);
+            for i in 0..400 {
+                let t = i as f64 * 2e-5;
+                let psi = dir * TAU * f * t;
+                let u = (0..n).map(|s| 1e-3 * (k as f64 * TAU * s as f64 / n as f64 - psi).cos());
+                let (re, im) = sector_harmonic(u, k);
+                tr.observe(t, re, im);
+            }
+            let rate = tr.phase_rate().unwrap();
+            assert!((rate - dir * TAU * f).abs() < 1e-6 * TAU * f, "{rate}");
+        }
+    }
+}

@@ -1,0 +1,149 @@
+//! The runaway watch of the time loop (after box 6): on sample steps, the structures' energy
+//! and the drive work go to a [`RunawayMonitor`]; once the envelope has doubled, the casing
+//! harmonic holding the most strain energy is followed on the contact surface
+//! ([`WaveTracker`]) so that a confirmed runaway names its wave.
+
+use super::{Casing, FlexibleCasing, Simulation, node_disp};
+use crate::dynamics::runaway::{Runaway, RunawayMonitor, WaveTracker, sector_harmonic};
+use crate::dynamics::structure::Structure;
+use std::f64::consts::TAU;
+
+/// What the watch keeps between sample steps.
+pub(super) struct RunawayWatch {
+    monitor: RunawayMonitor,
+    wave: WaveTracker,
+    /// Envelope blocks closed when the followed harmonic was last chosen.
+    chosen_at_block: Option<u64>,
+    /// Strain energy per nodal diameter of the casing (or impeller) (J), scratch.
+    nd_energy: Vec<f64>,
+}
+
+impl RunawayWatch {
+    /// A watch whose envelope blocks last one period of the wave that can grow: the
+    /// flexible casing's critical wave (`casing_wave`: its speed Ω_c in rad/s and nodal
+    /// diameter k, frequency k Ω_c), else the impeller's slowest mode at the case's speed.
+    /// It starts at `start` (s), the end of the load's ramp. `None` when no period is known.
+    pub(super) fn new(
+        casing_wave: Option<(f64, usize)>,
+        impeller: &Structure,
+        start: f64,
+    ) -> Option<Self> {
+        let omega = match casing_wave {
+            Some((speed, k)) => speed * k as f64,
+            None => (impeller.blocks.iter())
+                .flat_map(|b| b.omega.iter().copied())
+                .filter(|w| *w > 0.0)
+                .fold(f64::INFINITY, f64::min),
+        };
+        (omega.is_finite() && omega > 0.0).then(|| Self {
+            monitor: RunawayMonitor::new(TAU / omega, start),
+            wave: WaveTracker::default(),
+            chosen_at_block: None,
+            nd_energy: Vec::new(),
+        })
+    }
+}
+
+impl Simulation<'_> {
+    /// Watches for a runaway on sample steps; sets `self.runaway` when one is confirmed.
+    pub(super) fn watch_runaway(&mut self) {
+        if !self.sample_step || self.runaway.is_some() {
+            return;
+        }
+        let Some(mut watch) = self.watch.take() else {
+            return;
+        };
+        let mut energy = self.blades.kernel.get().energies().total();
+        if let Some(f) = self.casing.flexible() {
+            energy += f.kernel.get().energies().total();
+        }
+        let growth = watch.monitor.observe(self.t1, energy, self.drive_work);
+        if watch.monitor.armed() {
+            self.follow_wave(&mut watch);
+        }
+        if let Some(g) = growth {
+            let (nodal_diameter, rate) = self.growing_wave(&mut watch);
+            // ψ̇ − kΩ: the phase rate seen from the rotating frame.
+            let relative = rate
+                .zip(nodal_diameter)
+                .map(|(r, k)| r - k as f64 * self.case.omega);
+            self.runaway = Some(Runaway {
+                onset_time_s: g.onset_time_s,
+                detected_time_s: g.detected_time_s,
+                growth_rate_per_s: 0.5 * g.energy_rate_per_s,
+                growth_fit_r2: g.fit_r2,
+                energy_growth: g.energy_growth,
+                drive_work_j: g.drive_work_j,
+                nodal_diameter,
+                frequency_hz: rate.map(|r| r.abs() / TAU),
+                forward: rate.map(|r| r > 0.0),
+                rotating_frame_frequency_hz: relative.map(|r| r / TAU),
+            });
+        }
+        self.watch = Some(watch);
+    }
+
+    /// Follows the flexible casing's most energetic harmonic (k ≥ 1) on the row where it is
+    /// largest, choosing again whenever an envelope block has closed.
+    fn follow_wave(&mut self, watch: &mut RunawayWatch) {
+        let Casing::Surface(cs) = &mut self.casing else {
+            return;
+        };
+        let (rows, ns) = (cs.rows, cs.n_sectors);
+        let Some(f) = cs.flexible.as_mut() else {
+            return;
+        };
+        let kernel = f.kernel.get_mut();
+        kernel.node_displacements(&mut f.nodes);
+        let closed = watch.monitor.closed_blocks();
+        if watch.chosen_at_block != Some(closed) {
+            watch.nd_energy.resize(kernel.n_sectors() / 2 + 1, 0.0);
+            kernel.nd_strain_energy(&mut watch.nd_energy);
+            let k = most_energetic(&watch.nd_energy);
+            let row = (0..rows)
+                .map(|j| {
+                    let (re, im) = sector_harmonic(radial_row(f, ns, rows, j), k);
+                    (j, re.hypot(im))
+                })
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map_or(0, |(j, _)| j);
+            watch.wave.follow(k, row);
+            watch.chosen_at_block = Some(closed);
+        }
+        if let Some((k, row)) = watch.wave.target {
+            let (re, im) = sector_harmonic(radial_row(f, ns, rows, row), k);
+            watch.wave.observe(self.t1, re, im);
+        }
+    }
+
+    /// The nodal diameter of the growing wave and its phase rate (rad/s, positive forward):
+    /// the followed casing harmonic, or the impeller's most energetic one without a flexible
+    /// casing (whose phase is not followed).
+    fn growing_wave(&mut self, watch: &mut RunawayWatch) -> (Option<u32>, Option<f64>) {
+        if let Some((k, _)) = watch.wave.target {
+            return (Some(k as u32), watch.wave.phase_rate());
+        }
+        let kernel = self.blades.kernel.get();
+        watch.nd_energy.resize(self.nd_energy.len(), 0.0);
+        kernel.nd_strain_energy(&mut watch.nd_energy);
+        (Some(most_energetic(&watch.nd_energy) as u32), None)
+    }
+}
+
+/// Radial displacements (m) of casing row `row` in each of the `ns` sectors, from the node
+/// displacements last computed into `f.nodes`.
+fn radial_row(
+    f: &FlexibleCasing,
+    ns: usize,
+    rows: usize,
+    row: usize,
+) -> impl ExactSizeIterator<Item = f64> + '_ {
+    (0..ns).map(move |s| f.radial[row].dot(&node_disp(&f.nodes, s, 3 * rows, row)))
+}
+
+/// The nodal diameter k ≥ 1 with the most energy (0 when only k = 0 exists).
+fn most_energetic(per_nd: &[f64]) -> usize {
+    (1..per_nd.len())
+        .max_by(|&a, &b| per_nd[a].total_cmp(&per_nd[b]))
+        .unwrap_or(0)
+}
