@@ -321,6 +321,9 @@ pub fn simulate(
         "stability_limit_s": out.stability_limit,
         "steps_per_revolution": out.steps_per_revolution,
         "n_steps": out.n_steps,
+        "steps_run": out.steps_run,
+        "outcome": if out.runaway.is_some() { "unstable" } else { "ok" },
+        "runaway": out.runaway,
         "contact_steps": out.contact_steps,
         "closed_contact_steps": out.closed_contact_steps,
         "closed_contact_fraction": out.closed_contact_steps as f64 / out.n_steps.max(1) as f64,
@@ -355,6 +358,20 @@ pub fn simulate(
         out.max_residual_penetration,
         out.steps_over_gap_tolerance
     );
+    if let Some(r) = &out.runaway {
+        eprintln!(
+            "UNSTABLE: runaway from {:.3} ms (σ = {:.1} 1/s, R² {:.2}, nodal diameter {:?}, {:?} Hz), \
+             stopped at {:.3} ms after {} of {} steps",
+            r.onset_time_s * 1e3,
+            r.growth_rate_per_s,
+            r.growth_fit_r2,
+            r.nodal_diameter,
+            r.frequency_hz,
+            r.detected_time_s * 1e3,
+            out.steps_run,
+            out.n_steps
+        );
+    }
     for f in figures.iter().flatten() {
         let s = &f.steady;
         eprintln!(
@@ -482,11 +499,12 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     let plots =
         write_sweep_plots(&opts.output_dir, &records, &orders).map_err(anyhow::Error::from)?;
     eprintln!(
-        "{} jobs: {} ran, {} skipped (already done), {} ok, {} failed{} in {:.1} s -> {} (+{} plots)",
+        "{} jobs: {} ran, {} skipped (already done), {} ok, {} unstable, {} failed{} in {:.1} s -> {} (+{} plots)",
         summary.in_shard,
         summary.ran,
         summary.skipped,
         summary.ok,
+        summary.unstable,
         summary.failed,
         if summary.cancelled { ", cancelled" } else { "" },
         summary.wall_time_s,
@@ -498,7 +516,7 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
 
 /// The exit status of a finished [`run`]: [`AppError::Interrupted`] when Ctrl-C stopped it,
 /// [`AppError::JobsFailed`] when any finished job of the shard failed (including failed jobs
-/// skipped on resume).
+/// skipped on resume). An `unstable` job (a runaway found) is a success.
 pub fn check_run(summary: &RunSummary) -> Result<(), AppError> {
     if summary.cancelled {
         return Err(AppError::Interrupted);
@@ -506,7 +524,7 @@ pub fn check_run(summary: &RunSummary) -> Result<(), AppError> {
     if summary.failed > 0 {
         return Err(AppError::JobsFailed {
             failed: summary.failed,
-            finished: summary.ok + summary.failed,
+            finished: summary.ok + summary.unstable + summary.failed,
             output: summary
                 .results_path
                 .parent()

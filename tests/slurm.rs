@@ -110,7 +110,7 @@ fn status_and_merge_name_the_shards_not_done() {
     assert!(o.status.success(), "{}", stderr(&o));
     let shard0 = out.join("shards/0-of-2");
     let st = rubscan::sweep::status::status(&out).unwrap();
-    assert_eq!(st.totals(), (3, 0, 3));
+    assert_eq!(st.totals(), (3, 0, 0, 3));
     let counts: Vec<_> = st
         .shards
         .iter()

@@ -62,8 +62,9 @@ pub struct Runaway {
     pub energy_growth: f64,
     /// Work (J) the rotation did through the contact forces from the onset to the detection.
     pub drive_work_j: f64,
-    /// Nodal diameter of the growing wave: the casing's harmonic holding the most strain
-    /// energy at detection (the impeller's for a rigid casing).
+    /// Nodal diameter of the growing wave: the casing's largest radial harmonic on its
+    /// contact surface while the envelope grew (the impeller's harmonic holding the most
+    /// strain energy at detection, without a flexible casing).
     pub nodal_diameter: Option<u32>,
     /// Frequency (Hz, fixed frame, ≥ 0) of the growing casing wave, from its phase rate on
     /// the contact surface; `None` without a flexible casing or when too few samples were

@@ -29,6 +29,8 @@ pub struct JobAggregator {
     /// number of window samples.
     nd_sum: Vec<f64>,
     window_samples: usize,
+    /// Drive work (J) at the last sample.
+    drive_work: f64,
 }
 
 fn abs_max(m: &mut f64, values: &[f64]) {
@@ -52,6 +54,7 @@ impl JobAggregator {
             capacity: capacity.max(1),
             nd_sum: Vec::new(),
             window_samples: 0,
+            drive_work: 0.0,
         }
     }
 
@@ -107,12 +110,15 @@ impl JobAggregator {
             steps_over_gap_tolerance: Some(summary.steps_over_gap_tolerance as u64),
             critical_speed: None,
             spectrum,
+            drive_work_j: Some(self.drive_work),
+            runaway: summary.runaway,
         })
     }
 }
 
 impl Recorder for JobAggregator {
     fn record(&mut self, s: &Sample<'_>) -> Result<(), RecordError> {
+        self.drive_work = s.drive_work;
         let m = &mut self.maxima;
         abs_max(&mut m.blade_le_radial_m, s.blade_le_radial);
         abs_max(&mut m.blade_te_radial_m, s.blade_te_radial);

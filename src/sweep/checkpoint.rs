@@ -20,8 +20,12 @@ pub const JOB_RECORD_VERSION: u32 = 1;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "state")]
 pub enum JobStatus {
-    /// Finished; the record holds a result.
+    /// Finished with a bounded response; the record holds a result.
     Ok,
+    /// A runaway was confirmed and the job stopped early: a finding, not a failure. The
+    /// record holds a result whose maxima run to the stop and whose `runaway` says when it
+    /// started, how fast it grew and which wave grew.
+    Unstable,
     /// The simulator reported a failure (or panicked, or produced non-finite numbers).
     Failed {
         /// Why.
@@ -39,9 +43,9 @@ pub struct JobRecord {
     pub id: String,
     /// Job parameters (for humans and for checks; the plan is authoritative).
     pub params: JobParams,
-    /// Ok or failed with reason.
+    /// Ok, unstable, or failed with reason.
     pub status: JobStatus,
-    /// Aggregates when `status` is ok.
+    /// Aggregates when `status` is ok or unstable.
     pub result: Option<JobResult>,
     /// Wall-clock time of the job (s).
     pub wall_time_s: f64,
@@ -51,6 +55,7 @@ impl JobRecord {
     /// Record of a finished job.
     pub fn new(job: &Job, outcome: Result<JobResult, String>, wall_time_s: f64) -> Self {
         let (status, result) = match outcome {
+            Ok(r) if r.runaway.is_some() => (JobStatus::Unstable, Some(r)),
             Ok(r) => (JobStatus::Ok, Some(r)),
             Err(reason) => (JobStatus::Failed { reason }, None),
         };
@@ -64,9 +69,40 @@ impl JobRecord {
         }
     }
 
-    /// True when the job finished successfully.
-    pub fn is_ok(&self) -> bool {
-        self.status == JobStatus::Ok
+    /// True when the job succeeded: it ran to its end (`ok`) or found a runaway
+    /// (`unstable`); either way the record holds a result.
+    pub fn succeeded(&self) -> bool {
+        matches!(self.status, JobStatus::Ok | JobStatus::Unstable)
+    }
+
+    /// True when the job found a runaway.
+    pub fn is_unstable(&self) -> bool {
+        self.status == JobStatus::Unstable
+    }
+}
+
+/// Numbers of finished jobs by outcome.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Outcomes {
+    /// Bounded responses.
+    pub ok: usize,
+    /// Runaways found (a success).
+    pub unstable: usize,
+    /// Failures (numerics, I/O, limits).
+    pub failed: usize,
+}
+
+impl Outcomes {
+    /// Counts the outcomes of `records`.
+    pub fn of<'a>(records: impl IntoIterator<Item = &'a JobRecord>) -> Self {
+        records.into_iter().fold(Self::default(), |mut o, r| {
+            match r.status {
+                JobStatus::Ok => o.ok += 1,
+                JobStatus::Unstable => o.unstable += 1,
+                JobStatus::Failed { .. } => o.failed += 1,
+            }
+            o
+        })
     }
 }
 

@@ -32,6 +32,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use serde::{Deserialize, Serialize};
 
+use crate::dynamics::runaway::Runaway;
+
 pub use checkpoint::{JobRecord, JobStatus};
 pub use planner::{CoatingParams, CoatingValue, Job, JobContext, JobParams, Plan, plan};
 pub use runner::{
@@ -193,6 +195,13 @@ pub struct JobResult {
     pub critical_speed: Option<CriticalSpeed>,
     /// Full amplitude spectrum (for interaction maps), if kept.
     pub spectrum: Option<Spectrum>,
+    /// Work (J) the rotation did through the contact forces from the start to the end (or
+    /// the stop) of the run (`None` in a record written before it was kept).
+    #[serde(default)]
+    pub drive_work_j: Option<f64>,
+    /// The runaway that stopped the job early: its outcome is then `unstable`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub runaway: Option<Runaway>,
 }
 
 impl JobResult {
@@ -242,6 +251,23 @@ impl JobResult {
                 &mut [c.speed_rad_s, c.compatibility].into_iter(),
             )?;
         }
+        if let Some(r) = &self.runaway {
+            bad(
+                "runaway",
+                &mut [
+                    r.onset_time_s,
+                    r.detected_time_s,
+                    r.growth_rate_per_s,
+                    r.growth_fit_r2,
+                    r.energy_growth,
+                    r.drive_work_j,
+                ]
+                .into_iter()
+                .chain(r.frequency_hz)
+                .chain(r.rotating_frame_frequency_hz),
+            )?;
+        }
+        bad("drive_work_j", &mut self.drive_work_j.into_iter())?;
         if let Some(s) = &self.spectrum {
             bad(
                 "spectrum",

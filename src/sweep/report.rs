@@ -103,7 +103,7 @@ pub fn load_results(dir: &Path) -> Result<ResultsDir, ReportError> {
         return Err(input(table, reason.into()));
     }
     let records = read_records(&table).map_err(|e| input(table.clone(), format!("{e:#}")))?;
-    if !records.iter().any(|(_, r)| r.is_ok()) {
+    if !records.iter().any(|(_, r)| r.succeeded()) {
         return Err(input(table, "no successful job to report".into()));
     }
     Ok(ResultsDir {
@@ -129,7 +129,7 @@ fn blade_peak(r: &JobRecord) -> f64 {
 ///
 /// With `max` or fewer ok jobs, all of them. Failed jobs are never selected.
 pub fn select_jobs(records: &[(usize, JobRecord)], max: usize) -> Vec<usize> {
-    let ok: Vec<&(usize, JobRecord)> = records.iter().filter(|(_, r)| r.is_ok()).collect();
+    let ok: Vec<&(usize, JobRecord)> = records.iter().filter(|(_, r)| r.succeeded()).collect();
     if ok.len() <= max {
         let mut all: Vec<usize> = ok.iter().map(|(i, _)| *i).collect();
         all.sort_unstable();
@@ -451,7 +451,7 @@ fn chosen_jobs<'a>(
         .map(|&i| {
             res.records
                 .iter()
-                .find(|(k, r)| *k == i && r.is_ok())
+                .find(|(k, r)| *k == i && r.succeeded())
                 .ok_or_else(|| ReportError::Input {
                     path: table.clone(),
                     reason: format!("job {i} is not a successful job of this table"),
@@ -506,7 +506,7 @@ fn interaction_figures(
 ) -> Result<(), ReportError> {
     let n_lobes = lobes(&res.spec);
     let mut slices: Vec<(String, Vec<&JobRecord>)> = Vec::new();
-    for (_, r) in res.records.iter().filter(|(_, r)| r.is_ok()) {
+    for (_, r) in res.records.iter().filter(|(_, r)| r.succeeded()) {
         let key = slice_label(&r.params);
         match slices.iter_mut().find(|(k, _)| *k == key) {
             Some((_, v)) => v.push(r),
@@ -626,7 +626,7 @@ pub fn write_report(dir: &Path, opts: &ReportOptions) -> Result<Report, ReportEr
     let speeds: Vec<f64> = res
         .records
         .iter()
-        .filter(|(_, r)| r.is_ok())
+        .filter(|(_, r)| r.succeeded())
         .map(|(_, r)| r.params.speed_rad_s)
         .collect();
     let focus = (
@@ -689,7 +689,7 @@ fn index_html(
     report: &Report,
     sim: Option<&ModelSimulator>,
 ) -> String {
-    let ok = res.records.iter().filter(|(_, r)| r.is_ok()).count();
+    let ok = res.records.iter().filter(|(_, r)| r.succeeded()).count();
     let mut h = String::new();
     let _ = write!(
         h,

@@ -17,7 +17,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::checkpoint::{JobRecord, read_record, write_json_atomic, write_record};
+use super::checkpoint::{JobRecord, Outcomes, read_record, write_json_atomic, write_record};
 use super::planner::{Job, Plan, plan};
 use super::spec::SweepSpec;
 use super::table::write_results;
@@ -74,6 +74,10 @@ pub struct RunSummary {
     pub ran: usize,
     /// Finished jobs of the shard with status ok (including skipped ones).
     pub ok: usize,
+    /// Finished jobs of the shard with status unstable: a runaway found, a success
+    /// (including skipped ones).
+    #[serde(default)]
+    pub unstable: usize,
     /// Finished jobs of the shard with status failed (including skipped ones).
     pub failed: usize,
     /// Jobs of the shard left unfinished (cancellation).
@@ -130,15 +134,37 @@ pub struct Manifest {
     pub summary: RunSummary,
     /// Start time (s since the Unix epoch).
     pub started_unix_s: f64,
-    /// True when every job of the shard (or plan, for merges) is finished (ok or failed).
+    /// True when every job of the shard (or plan, for merges) is finished (ok, unstable or
+    /// failed).
     pub complete: bool,
     /// Finished jobs that failed (= `summary.failed`); their reasons are in `jobs/<id>.json`
     /// and the `reason` column of the results table.
     #[serde(default)]
     pub failed: usize,
-    /// True when the scan worked: complete and no job failed.
+    /// True when the scan worked: complete and no job failed (`unstable` jobs are findings,
+    /// not failures).
     #[serde(default)]
     pub all_ok: bool,
+}
+
+/// The progress line's word for an unstable job: when the runaway was confirmed, its growth
+/// rate and its wave.
+fn unstable_note(rec: &JobRecord) -> String {
+    let Some(r) = rec.result.as_ref().and_then(|x| x.runaway) else {
+        return "UNSTABLE".into();
+    };
+    let wave = match (r.nodal_diameter, r.frequency_hz) {
+        (Some(k), Some(f)) => format!(", nodal diameter {k} at {f:.0} Hz"),
+        (Some(k), None) => format!(", nodal diameter {k}"),
+        _ => String::new(),
+    };
+    format!(
+        "UNSTABLE: runaway from {:.2} ms, σ = {:.0} 1/s (R² {:.2}){wave}, stopped at {:.2} ms",
+        r.onset_time_s * 1e3,
+        r.growth_rate_per_s,
+        r.growth_fit_r2,
+        r.detected_time_s * 1e3
+    )
 }
 
 fn now_unix_s() -> f64 {
@@ -243,6 +269,7 @@ impl Reporter {
         let n = self.done.fetch_add(1, Ordering::SeqCst) + 1;
         let status = match &rec.status {
             checkpoint::JobStatus::Ok => "ok".to_string(),
+            checkpoint::JobStatus::Unstable => unstable_note(rec),
             checkpoint::JobStatus::Failed { reason } => format!("FAILED: {reason}"),
         };
         let msg = format!(
@@ -251,7 +278,7 @@ impl Reporter {
         );
         match &self.bar {
             Some(b) => {
-                if !rec.is_ok() {
+                if rec.status != checkpoint::JobStatus::Ok {
                     b.println(format!("[sweep] {msg}"));
                 }
                 b.set_message(msg);
@@ -426,7 +453,7 @@ pub fn run_sweep(
     let mut skipped = 0;
     for &job in &shard_jobs {
         match read_record(out, &job.id) {
-            Ok(Some(rec)) if rec.is_ok() || !opts.retry_failed => skipped += 1,
+            Ok(Some(rec)) if rec.succeeded() || !opts.retry_failed => skipped += 1,
             Ok(_) => pending.push(job),
             Err(reason) => {
                 eprintln!(
@@ -526,14 +553,15 @@ fn summarise(
     t0: Instant,
     out: &Path,
 ) -> RunSummary {
-    let ok = records.iter().filter(|(_, r)| r.is_ok()).count();
+    let outcomes = Outcomes::of(records.iter().map(|(_, r)| r));
     RunSummary {
         planned: plan.jobs.len(),
         in_shard: shard_jobs.len(),
         skipped,
         ran,
-        ok,
-        failed: records.len() - ok,
+        ok: outcomes.ok,
+        unstable: outcomes.unstable,
+        failed: outcomes.failed,
         unfinished: shard_jobs.len() - records.len(),
         cancelled,
         wall_time_s: t0.elapsed().as_secs_f64(),
@@ -656,14 +684,15 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     }
     let results_path = out_dir.join("results.parquet");
     write_results(&results_path, &records)?;
-    let ok = records.iter().filter(|(_, r)| r.is_ok()).count();
+    let outcomes = Outcomes::of(records.iter().map(|(_, r)| r));
     let summary = RunSummary {
         planned: plan.jobs.len(),
         in_shard: plan.jobs.len(),
         skipped: records.len(),
         ran: 0,
-        ok,
-        failed: records.len() - ok,
+        ok: outcomes.ok,
+        unstable: outcomes.unstable,
+        failed: outcomes.failed,
         unfinished: missing.len(),
         cancelled: false,
         wall_time_s: t0.elapsed().as_secs_f64(),
@@ -776,7 +805,7 @@ fn shard_problems(dirs: &[PathBuf], manifests: &[Option<Manifest>], plan: &Plan)
             .filter(|j| m.shard.is_none_or(|(i, n)| j.index % n == i));
         let n_jobs = jobs.clone().count();
         let records = load_records(d, jobs);
-        let failed = records.iter().filter(|(_, r)| !r.is_ok()).count();
+        let failed = records.iter().filter(|(_, r)| !r.succeeded()).count();
         let unfinished = n_jobs - records.len();
         if unfinished > 0 {
             out.push(format!(

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 
+use super::checkpoint::{JobStatus, Outcomes};
 use super::planner::plan;
 use super::runner::{Manifest, load_records, read_manifest, read_manifest_if_any};
 use super::slurm::shard_dirs;
@@ -22,8 +23,10 @@ pub struct ShardStatus {
     pub dir: PathBuf,
     /// True when the directory has a manifest (its run started).
     pub started: bool,
-    /// Jobs finished ok.
+    /// Jobs finished ok (bounded response).
     pub ok: usize,
+    /// Jobs finished unstable (a runaway found: a success, stopped early).
+    pub unstable: usize,
     /// Jobs finished failed.
     pub failed: usize,
     /// Jobs not finished.
@@ -31,7 +34,8 @@ pub struct ShardStatus {
     /// Worker threads of its run (from its manifest; 0 = all cores).
     pub threads: usize,
     /// Estimated time left (s): the remaining jobs, `threads` at a time, each taking the
-    /// mean wall time of the sweep's finished ok jobs; `None` when no job finished ok.
+    /// mean wall time of the sweep's finished ok jobs (unstable ones stop early);
+    /// `None` when no job finished ok.
     pub eta_s: Option<f64>,
 }
 
@@ -55,10 +59,10 @@ impl SweepStatus {
             .try_fold(0.0_f64, |acc, e| e.map(|e| acc.max(e)))
     }
 
-    /// Jobs (ok, failed, remaining) over all shards.
-    pub fn totals(&self) -> (usize, usize, usize) {
-        self.shards.iter().fold((0, 0, 0), |(o, f, r), s| {
-            (o + s.ok, f + s.failed, r + s.remaining)
+    /// Jobs (ok, unstable, failed, remaining) over all shards.
+    pub fn totals(&self) -> (usize, usize, usize, usize) {
+        self.shards.iter().fold((0, 0, 0, 0), |(o, u, f, r), s| {
+            (o + s.ok, u + s.unstable, f + s.failed, r + s.remaining)
         })
     }
 }
@@ -134,11 +138,11 @@ pub fn status(out: &Path) -> Result<SweepStatus> {
             .filter(|j| shard.is_none_or(|(i, n)| j.index % n == i));
         let n_jobs = jobs.clone().count();
         let records = load_records(&dir, jobs);
-        let ok = records.iter().filter(|(_, r)| r.is_ok()).count();
+        let outcomes = Outcomes::of(records.iter().map(|(_, r)| r));
         ok_times.extend(
             records
                 .iter()
-                .filter(|(_, r)| r.is_ok())
+                .filter(|(_, r)| r.status == JobStatus::Ok)
                 .map(|(_, r)| r.wall_time_s),
         );
         let own = read_manifest(&dir).ok();
@@ -147,8 +151,9 @@ pub fn status(out: &Path) -> Result<SweepStatus> {
             started: own.is_some(),
             threads: own.map_or(manifest.threads, |m| m.threads),
             dir,
-            ok,
-            failed: records.len() - ok,
+            ok: outcomes.ok,
+            unstable: outcomes.unstable,
+            failed: outcomes.failed,
             remaining: n_jobs - records.len(),
             eta_s: None,
         });
@@ -180,8 +185,8 @@ impl fmt::Display for SweepStatus {
         writeln!(f, "sweep {}", self.sweep)?;
         writeln!(
             f,
-            "{:<8}  {:>6}  {:>6}  {:>9}  {:>7}  {:>10}  directory",
-            "shard", "done", "failed", "remaining", "threads", "ETA"
+            "{:<8}  {:>6}  {:>8}  {:>6}  {:>9}  {:>7}  {:>10}  directory",
+            "shard", "ok", "unstable", "failed", "remaining", "threads", "ETA"
         )?;
         for s in &self.shards {
             let label = s.shard.map_or("-".into(), |(i, n)| format!("{i}/{n}"));
@@ -192,18 +197,19 @@ impl fmt::Display for SweepStatus {
             };
             writeln!(
                 f,
-                "{label:<8}  {:>6}  {:>6}  {:>9}  {threads:>7}  {:>10}  {}",
+                "{label:<8}  {:>6}  {:>8}  {:>6}  {:>9}  {threads:>7}  {:>10}  {}",
                 s.ok,
+                s.unstable,
                 s.failed,
                 s.remaining,
                 fmt_eta(s.eta_s),
                 s.dir.display()
             )?;
         }
-        let (ok, failed, remaining) = self.totals();
+        let (ok, unstable, failed, remaining) = self.totals();
         writeln!(
             f,
-            "{:<8}  {ok:>6}  {failed:>6}  {remaining:>9}  {:>7}  {:>10}",
+            "{:<8}  {ok:>6}  {unstable:>8}  {failed:>6}  {remaining:>9}  {:>7}  {:>10}",
             "total",
             "",
             fmt_eta(self.eta_s())

@@ -15,8 +15,8 @@ use arrow_array::builder::{
     ArrayBuilder, Float64Builder, ListBuilder, StringBuilder, StructBuilder, UInt32Builder,
 };
 use arrow_array::{
-    Array, ArrayRef, Float64Array, ListArray, RecordBatch, StringArray, StructArray, UInt32Array,
-    UInt64Array,
+    Array, ArrayRef, BooleanArray, Float64Array, ListArray, RecordBatch, StringArray, StructArray,
+    UInt32Array, UInt64Array,
 };
 use arrow_schema::{DataType, Field, Fields, Schema};
 use parquet::arrow::ArrowWriter;
@@ -24,6 +24,7 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
 
+use crate::dynamics::runaway::Runaway;
 use crate::io::atomic::AtomicFile;
 use crate::sweep::checkpoint::{JobRecord, JobStatus};
 use crate::sweep::planner::{CoatingParams, CoatingValue, JobParams};
@@ -80,8 +81,63 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
         "1",
         "factor on the nominal e_abr when given as scale",
     ),
-    ("status", "", "\"ok\" or \"failed\""),
-    ("reason", "", "failure reason; null when ok"),
+    (
+        "status",
+        "",
+        "\"ok\" (bounded response), \"unstable\" (runaway found, job stopped) or \"failed\"",
+    ),
+    ("reason", "", "failure reason; null unless failed"),
+    (
+        "drive_work_j",
+        "J",
+        "work of the rotation through the contact forces over the run (to its stop)",
+    ),
+    (
+        "runaway_onset_s",
+        "s",
+        "unstable: onset of the growth (lowest energy envelope before it)",
+    ),
+    (
+        "runaway_detected_s",
+        "s",
+        "unstable: time the runaway was confirmed and the job stopped",
+    ),
+    (
+        "growth_rate_per_s",
+        "1/s",
+        "unstable: amplitude growth rate σ (half the fitted slope of ln E)",
+    ),
+    ("growth_fit_r2", "1", "unstable: R² of that exponential fit"),
+    (
+        "runaway_energy_growth",
+        "1",
+        "unstable: energy envelope ratio from onset to detection",
+    ),
+    (
+        "runaway_drive_work_j",
+        "J",
+        "unstable: work of the rotation from onset to detection",
+    ),
+    (
+        "growing_wave_frequency_hz",
+        "Hz",
+        "unstable: fixed-frame frequency of the growing casing wave",
+    ),
+    (
+        "growing_wave_rotating_frequency_hz",
+        "Hz",
+        "unstable: its frequency in the rotating frame (signed, > 0 ahead of the blades)",
+    ),
+    (
+        "growing_nodal_diameter",
+        "",
+        "unstable: nodal diameter of the growing wave",
+    ),
+    (
+        "growing_wave_forward",
+        "",
+        "unstable: whether the casing wave travels in the sense of rotation (fixed frame)",
+    ),
     (
         "max_blade_le_radial_m",
         "m",
@@ -202,6 +258,70 @@ fn peak_fields() -> Fields {
     ])
 }
 
+/// The runaway columns of an `unstable` row that are float64 (null on other rows), in table
+/// order.
+const RUNAWAY_F64: [(&str, fn(&Runaway) -> Option<f64>); 8] = [
+    ("runaway_onset_s", |r| Some(r.onset_time_s)),
+    ("runaway_detected_s", |r| Some(r.detected_time_s)),
+    ("growth_rate_per_s", |r| Some(r.growth_rate_per_s)),
+    ("growth_fit_r2", |r| Some(r.growth_fit_r2)),
+    ("runaway_energy_growth", |r| Some(r.energy_growth)),
+    ("runaway_drive_work_j", |r| Some(r.drive_work_j)),
+    ("growing_wave_frequency_hz", |r| r.frequency_hz),
+    ("growing_wave_rotating_frequency_hz", |r| {
+        r.rotating_frame_frequency_hz
+    }),
+];
+
+/// Appends the runaway columns of `rows` to `cols`.
+fn runaway_columns(rows: &[&(usize, JobRecord)], cols: &mut Vec<ArrayRef>) {
+    let runaway = |r: &JobRecord| r.result.as_ref().and_then(|x| x.runaway);
+    for (_, get) in RUNAWAY_F64 {
+        cols.push(f64_col(
+            rows.iter().map(|(_, r)| runaway(r).and_then(|x| get(&x))),
+        ));
+    }
+    cols.push(Arc::new(UInt32Array::from_iter(
+        rows.iter()
+            .map(|(_, r)| runaway(r).and_then(|x| x.nodal_diameter)),
+    )));
+    cols.push(Arc::new(BooleanArray::from_iter(
+        rows.iter().map(|(_, r)| runaway(r).and_then(|x| x.forward)),
+    )));
+}
+
+/// The runaway of row `i` read back from its columns (`None` when the row has none, or the
+/// table predates them).
+fn runaway_of_row(b: &RecordBatch, i: usize) -> Result<Option<Runaway>> {
+    if b.column_by_name(RUNAWAY_F64[0].0).is_none() {
+        return Ok(None);
+    }
+    let mut v = [None; 8];
+    for (x, (name, _)) in v.iter_mut().zip(RUNAWAY_F64) {
+        *x = opt_f64(column::<Float64Array>(b, name)?, i);
+    }
+    let Some(onset_time_s) = v[0] else {
+        return Ok(None);
+    };
+    let nd = column::<UInt32Array>(b, "growing_nodal_diameter")?;
+    let forward = column::<BooleanArray>(b, "growing_wave_forward")?;
+    let need = |x: Option<f64>, k: usize| {
+        x.with_context(|| format!("row {i}: {} is null for a runaway", RUNAWAY_F64[k].0))
+    };
+    Ok(Some(Runaway {
+        onset_time_s,
+        detected_time_s: need(v[1], 1)?,
+        growth_rate_per_s: need(v[2], 2)?,
+        growth_fit_r2: need(v[3], 3)?,
+        energy_growth: need(v[4], 4)?,
+        drive_work_j: need(v[5], 5)?,
+        frequency_hz: v[6],
+        rotating_frame_frequency_hz: v[7],
+        nodal_diameter: nd.is_valid(i).then(|| nd.value(i)),
+        forward: forward.is_valid(i).then(|| forward.value(i)),
+    }))
+}
+
 /// Builds the results table from job records `(job index, record)`; rows are sorted by index.
 pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> {
     let mut rows: Vec<&(usize, JobRecord)> = rows.iter().collect();
@@ -241,6 +361,10 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
                 status.append_value("ok");
                 reason.append_null();
             }
+            JobStatus::Unstable => {
+                status.append_value("unstable");
+                reason.append_null();
+            }
             JobStatus::Failed { reason: why } => {
                 status.append_value("failed");
                 reason.append_value(why);
@@ -249,6 +373,8 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
     }
     cols.push(Arc::new(status.finish()));
     cols.push(Arc::new(reason.finish()));
+    cols.push(res(|r| r.drive_work_j));
+    runaway_columns(&rows, &mut cols);
     cols.push(res(|r| Some(r.maxima.blade_le_radial_m)));
     cols.push(res(|r| Some(r.maxima.blade_te_radial_m)));
     cols.push(res(|r| Some(r.maxima.casing_radial_m)));
@@ -461,9 +587,14 @@ fn records_of_batch(b: &RecordBatch) -> Result<Vec<(usize, JobRecord)>> {
             },
         };
         let (state, result) = match status.value(i) {
-            "ok" => (
-                JobStatus::Ok,
+            outcome @ ("ok" | "unstable") => (
+                if outcome == "ok" {
+                    JobStatus::Ok
+                } else {
+                    JobStatus::Unstable
+                },
                 Some(result_of_row(
+                    b,
                     i,
                     &RowColumns {
                         maxima: &maxima,
@@ -488,7 +619,9 @@ fn records_of_batch(b: &RecordBatch) -> Result<Vec<(usize, JobRecord)>> {
                 },
                 None,
             ),
-            other => anyhow::bail!("row {i}: status {other:?} (expected \"ok\" or \"failed\")"),
+            other => anyhow::bail!(
+                "row {i}: status {other:?} (expected \"ok\", \"unstable\" or \"failed\")"
+            ),
         };
         out.push((
             index.value(i) as usize,
@@ -517,8 +650,8 @@ struct RowColumns<'a> {
     spectrum: (&'a Float64Array, &'a ListArray),
 }
 
-/// The [`JobResult`](crate::sweep::JobResult) of row `i` of an ok job.
-fn result_of_row(i: usize, c: &RowColumns<'_>) -> Result<crate::sweep::JobResult> {
+/// The [`JobResult`](crate::sweep::JobResult) of row `i` of an ok or unstable job.
+fn result_of_row(b: &RecordBatch, i: usize, c: &RowColumns<'_>) -> Result<crate::sweep::JobResult> {
     let need = |a: &Float64Array, name: &str| {
         opt_f64(a, i).with_context(|| format!("row {i}: {name} is null for an ok job"))
     };
@@ -589,6 +722,12 @@ fn result_of_row(i: usize, c: &RowColumns<'_>) -> Result<crate::sweep::JobResult
             .and_then(|a| a.is_valid(i).then(|| a.value(i))),
         critical_speed,
         spectrum,
+        drive_work_j: b
+            .column_by_name("drive_work_j")
+            .map(|_| column::<Float64Array>(b, "drive_work_j"))
+            .transpose()?
+            .and_then(|a| opt_f64(a, i)),
+        runaway: runaway_of_row(b, i)?,
     })
 }
 

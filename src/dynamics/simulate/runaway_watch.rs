@@ -1,6 +1,6 @@
 //! The runaway watch of the time loop (after box 6): on sample steps, the structures' energy
-//! and the drive work go to a [`RunawayMonitor`]; once the envelope has doubled, the casing
-//! harmonic holding the most strain energy is followed on the contact surface
+//! and the drive work go to a [`RunawayMonitor`]; once the envelope has doubled, the largest
+//! radial harmonic of the casing's contact surface is followed
 //! ([`WaveTracker`]) so that a confirmed runaway names its wave.
 
 use super::{Casing, FlexibleCasing, Simulation, node_disp};
@@ -14,7 +14,7 @@ pub(super) struct RunawayWatch {
     wave: WaveTracker,
     /// Envelope blocks closed when the followed harmonic was last chosen.
     chosen_at_block: Option<u64>,
-    /// Strain energy per nodal diameter of the casing (or impeller) (J), scratch.
+    /// Strain energy per nodal diameter of the impeller (J), scratch.
     nd_energy: Vec<f64>,
 }
 
@@ -58,9 +58,11 @@ impl Simulation<'_> {
             energy += f.kernel.get().energies().total();
         }
         let growth = watch.monitor.observe(self.t1, energy, self.drive_work);
-        if watch.monitor.armed() {
+        if growth.is_none() && watch.monitor.armed() {
             self.follow_wave(&mut watch);
         }
+        // The wave followed so far names the runaway (choosing again on the confirming
+        // sample could restart its phase).
         if let Some(g) = growth {
             let (nodal_diameter, rate) = self.growing_wave(&mut watch);
             // ψ̇ − kΩ: the phase rate seen from the rotating frame.
@@ -83,8 +85,8 @@ impl Simulation<'_> {
         self.watch = Some(watch);
     }
 
-    /// Follows the flexible casing's most energetic harmonic (k ≥ 1) on the row where it is
-    /// largest, choosing again whenever an envelope block has closed.
+    /// Follows the flexible casing's largest radial harmonic (k ≥ 1) on the contact surface,
+    /// choosing it again whenever an envelope block has closed.
     fn follow_wave(&mut self, watch: &mut RunawayWatch) {
         let Casing::Surface(cs) = &mut self.casing else {
             return;
@@ -97,16 +99,16 @@ impl Simulation<'_> {
         kernel.node_displacements(&mut f.nodes);
         let closed = watch.monitor.closed_blocks();
         if watch.chosen_at_block != Some(closed) {
-            watch.nd_energy.resize(kernel.n_sectors() / 2 + 1, 0.0);
-            kernel.nd_strain_energy(&mut watch.nd_energy);
-            let k = most_energetic(&watch.nd_energy);
-            let row = (0..rows)
-                .map(|j| {
+            // The wave a reader sees: the largest radial harmonic on the contact surface
+            // (strain energy would favour the short waves under the blade tips).
+            let (k, row) = (1..=ns / 2)
+                .flat_map(|k| (0..rows).map(move |j| (k, j)))
+                .map(|(k, j)| {
                     let (re, im) = sector_harmonic(radial_row(f, ns, rows, j), k);
-                    (j, re.hypot(im))
+                    ((k, j), re.hypot(im))
                 })
                 .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map_or(0, |(j, _)| j);
+                .map_or((1, 0), |(kj, _)| kj);
             watch.wave.follow(k, row);
             watch.chosen_at_block = Some(closed);
         }
