@@ -158,6 +158,8 @@ impl SyntheticSimulator {
                 df_hz: df,
                 amplitude_m,
             }),
+            drive_work_j: None,
+            runaway: None,
         }
     }
 }
