@@ -223,7 +223,7 @@ fn widest_gap_midpoint(speeds: &[f64], tol: f64) -> Option<f64> {
         .map(|w| (w[0], w[1]))
         // First of equally wide gaps: `max_by` keeps the last, so compare reversed on ties.
         .max_by(|x, y| (x.1 - x.0).total_cmp(&(y.1 - y.0)).then(Ordering::Greater))?;
-    (b - a > tol).then(|| a + 0.5 * (b - a))
+    (b - a > tol).then_some(a + 0.5 * (b - a))
 }
 
 /// Boundaries of the canonical points `pts`, with the speeds inside each bracket.
