@@ -10,13 +10,14 @@
 //!   by the nearest known neighbours, and the widest gap between the bracket's points
 //!   (failed ones included, so a failed speed is never run again) is bisected.
 //! - **Peak** (`refine.peak_of`): each local maximum of the chosen quantity among the `ok`
-//!   points that carry it is bracketed by its two neighbours; a job is added at the vertex
+//!   points that carry it (`failed` ones skipped as unknown; an `unstable` point separates
+//!   two stretches) is bracketed by its two neighbours; a job is added at the vertex
 //!   of the parabola through the three (clamped into the bracket, kept at least tolerance/2
 //!   away from every existing speed), or, when the vertex is degenerate or has no room,
 //!   at the midpoint of the widest gap of the bracket (the larger half-bracket: a
 //!   golden-section-style step). A peak is located when half the distance between its best
-//!   point's neighbours is within the tolerance. A maximum at either end of those points
-//!   (the grid's ends, or next to a stretch without values) is reported but not refined:
+//!   point's neighbours is within the tolerance. A maximum at either end of a stretch
+//!   (an end of the grid, or next to an `unstable` point) is reported but not refined:
 //!   the response still rises towards the end, so the peak lies outside what was scanned.
 //!
 //! Everything here is pure and deterministic: the same points in any order give the same
@@ -162,8 +163,9 @@ pub struct LocatedPeak {
     /// Vertex of the parabola through the three points (rad/s), an estimate of the peak's
     /// speed; `None` at an end or when degenerate.
     pub vertex_rad_s: Option<f64>,
-    /// The maximum is at an end of the points with a value: not a located peak (the
-    /// response still rises towards the end of what was scanned), never refined.
+    /// The maximum is at an end of a stretch of `ok` points (an end of the grid, or next to
+    /// an `unstable` point): not a located peak (the response still rises towards the end of
+    /// what was scanned, or into the runaway), never refined.
     pub at_end: bool,
     /// Interior, and half the distance between its neighbours is within the tolerance.
     pub within_tolerance: bool,
@@ -262,13 +264,24 @@ fn parabola_vertex([(x0, y0), (x1, y1), (x2, y2)]: [(f64, f64); 3]) -> Option<f6
     (c2 < 0.0 && t.is_finite()).then_some(x1 + t)
 }
 
-/// Local maxima of the `ok` points' values, with the three points of each fit.
+/// Local maxima of the `ok` points' values, with the three points of each fit. An
+/// `unstable` point ends a stretch (the response is another regime beyond it); `failed`
+/// points and `ok` points without a value are skipped as unknown, as for boundaries.
 fn peaks(pts: &[SpeedPoint], tol: f64) -> Vec<(LocatedPeak, [(f64, f64); 3])> {
-    let valued: Vec<(f64, f64)> = pts
-        .iter()
-        .filter(|p| p.outcome == PointOutcome::Ok)
-        .filter_map(|p| p.value.map(|v| (p.omega_rad_s, v)))
-        .collect();
+    pts.split(|p| p.outcome == PointOutcome::Unstable)
+        .flat_map(|stretch| {
+            let valued: Vec<(f64, f64)> = stretch
+                .iter()
+                .filter(|p| p.outcome == PointOutcome::Ok)
+                .filter_map(|p| p.value.map(|v| (p.omega_rad_s, v)))
+                .collect();
+            stretch_peaks(&valued, tol)
+        })
+        .collect()
+}
+
+/// Local maxima of one stretch of (Ω, value) in increasing Ω; none from fewer than two.
+fn stretch_peaks(valued: &[(f64, f64)], tol: f64) -> Vec<(LocatedPeak, [(f64, f64); 3])> {
     let n = valued.len();
     if n < 2 {
         return Vec::new();
@@ -745,6 +758,48 @@ mod tests {
             .map(|&w| system(4800.0, 6000.0, 150.0)(w))
             .collect();
         assert!(next_round(&into_runaway, &spec(5.0, 10, false, true), 0).is_empty());
+    }
+
+    #[test]
+    fn a_peak_is_found_across_failed_points_but_not_across_a_runaway() {
+        let speeds = grid(3500.0, 5300.0, 9);
+        let r = spec(5.0, 50, false, true);
+        // The job at the grid speed next to the peak fails: the peak is still bracketed by
+        // the nearest values, and the failed speed is never asked again.
+        let flaky = |w: f64| {
+            let mut p = system(f64::INFINITY, 4447.3, 150.0)(w);
+            if w == 4400.0 {
+                (p.outcome, p.value) = (PointOutcome::Failed, None);
+            }
+            p
+        };
+        let run = refine_line(&speeds, flaky, &r);
+        let p = located(&run.points, &r).peaks;
+        assert!(p.len() == 1 && p[0].within_tolerance, "{p:?}");
+        assert!((p[0].vertex_rad_s.unwrap() - 4447.3).abs() <= 5.0, "{p:?}");
+        // A response that is highest next to an unstable band is not a peak, on either side,
+        // while a real peak on the far side of the band is refined.
+        let banded = |w: f64| {
+            let mut p = system(f64::INFINITY, 3950.0, 300.0)(w);
+            if (4200.0..4700.0).contains(&w) {
+                p.outcome = PointOutcome::Unstable;
+            }
+            p
+        };
+        let points: Vec<SpeedPoint> = speeds.iter().map(|&w| banded(w)).collect();
+        let found = located(&points, &r).peaks;
+        let (interior, ends): (Vec<LocatedPeak>, Vec<LocatedPeak>) =
+            found.iter().partition(|p| !p.at_end);
+        assert_eq!(interior.len(), 1, "{found:?}");
+        assert_eq!(interior[0].best_rad_s, 3950.0);
+        // The stretch above the band falls away from it: its maximum is at its lower end.
+        assert!(ends.iter().any(|p| p.best_rad_s == 4850.0), "{found:?}");
+        let new = next_round(&points, &r, 0);
+        assert_eq!(new.len(), 1);
+        assert!(
+            new[0].omega_rad_s > 3725.0 && new[0].omega_rad_s < 4175.0,
+            "{new:?}"
+        );
     }
 
     #[test]
