@@ -26,8 +26,9 @@
 
 use std::cmp::Ordering;
 
+use serde::{Deserialize, Serialize};
+
 use crate::sweep::JobResult;
-use crate::sweep::spec::RefineSpec;
 
 /// The numeric scalar columns of the results table (`schemas/results.md`) whose local
 /// maxima along Ω refinement can locate (`refine.peak_of`): the job's deterministic result
@@ -47,6 +48,64 @@ pub const PEAK_QUANTITIES: &[&str] = &[
     "critical_compatibility",
     "spectrum_df_hz",
 ];
+
+/// The other columns of the results table, refused as `refine.peak_of` with a reason of
+/// their own; with [`PEAK_QUANTITIES`] they are every column (a test in `table` holds
+/// that, so that a new column is put on one side or the other).
+pub const OTHER_COLUMNS: &[&str] = &[
+    "job_index",
+    "job_id",
+    "speed_rad_s",
+    "friction",
+    "clearance_m",
+    "coating_young_pa",
+    "coating_young_scale",
+    "coating_hardening_pa",
+    "coating_hardening_scale",
+    "coating_yield_stress_pa",
+    "coating_yield_stress_scale",
+    "coating_thickness_m",
+    "coating_thickness_scale",
+    "status",
+    "reason",
+    "wear_profile_m",
+    "fourier_peaks",
+    "strain_energy_per_nd_j",
+    "spectrum_amplitude_m",
+    "wall_time_s",
+];
+
+/// Smallest refinement tolerance, relative to the fastest grid speed. A speed is held to
+/// 2.2e-16 of itself in f64, and a job id tells apart any two different f64 speeds, but two
+/// simulations 1e-9 Ω apart answer the same: a finer tolerance only spends the budget on
+/// speeds no result can tell apart (and on round-off in the brackets' midpoints).
+pub const MIN_REFINE_TOLERANCE: f64 = 1e-9;
+
+/// Refinement of the speed axis: after the grid, speeds are added to each speed line (one
+/// combination of the other axes) where its answer changes, round after round, by
+/// [`next_round`]. Checked by `SweepSpec::validate`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RefineSpec {
+    /// Tolerance (rad/s, whatever the axis' unit): a boundary is located when its bracket is
+    /// at most this wide, a peak when the distance between its best speed's neighbours is at
+    /// most twice this. > 0, at least [`MIN_REFINE_TOLERANCE`] × the largest grid speed and
+    /// below the largest spacing of the grid's speeds.
+    pub tolerance_rad_s: f64,
+    /// Refined jobs allowed per speed line (≥ 1), over all rounds.
+    pub max_jobs: usize,
+    /// Bisect between neighbouring speeds whose outcomes differ (`ok` / `unstable`).
+    #[serde(default = "yes")]
+    pub boundary: bool,
+    /// A numeric scalar column of the results table (one of [`PEAK_QUANTITIES`]) whose local
+    /// maxima along Ω are located.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_of: Option<String>,
+}
+
+fn yes() -> bool {
+    true
+}
 
 /// The value of the results-table column `column` (one of [`PEAK_QUANTITIES`]) for a
 /// job's result, in the column's unit; `None` when the column is null for this result or
@@ -859,95 +918,9 @@ mod tests {
         }
     }
 
-    /// `quantity_of` reads what the results table writes, and every column of the table is
-    /// either a peak quantity or excluded for a stated reason (a new column must choose).
+    /// The schema offers `peak_of` the same names.
     #[test]
-    fn peak_quantities_are_the_tables_numeric_result_columns() {
-        use crate::sweep::checkpoint::{JOB_RECORD_VERSION, JobRecord, JobStatus};
-        use crate::sweep::table::{COLUMNS, results_batch};
-        use crate::sweep::{CriticalSpeed, JobParams, Maxima, Spectrum};
-        use arrow_array::Array;
-        let result = JobResult {
-            maxima: Maxima {
-                blade_le_radial_m: 1e-4,
-                blade_te_radial_m: 2e-4,
-                casing_radial_m: 3e-4,
-                contact_normal_force_n: 12.5,
-                coating_force_n: 0.5,
-            },
-            residual_penetration_m: 1e-13,
-            steps_over_gap_tolerance: Some(3),
-            critical_speed: Some(CriticalSpeed {
-                speed_rad_s: 6891.0,
-                nodal_diameter: 5,
-                compatibility: 0.135,
-            }),
-            spectrum: Some(Spectrum {
-                df_hz: 83.3,
-                amplitude_m: vec![1.0],
-            }),
-            ..JobResult::default()
-        };
-        let record = JobRecord {
-            format_version: JOB_RECORD_VERSION,
-            id: "a".into(),
-            params: JobParams {
-                speed_rad_s: 1.0,
-                friction: 0.1,
-                clearance_m: None,
-                coating: Default::default(),
-            },
-            status: JobStatus::Ok,
-            result: Some(result.clone()),
-            wall_time_s: 1.0,
-        };
-        let batch = results_batch(&[(0, record)]).unwrap();
-        for &name in PEAK_QUANTITIES {
-            let col = batch
-                .column_by_name(name)
-                .unwrap_or_else(|| panic!("{name}"));
-            let any = col.as_any();
-            let value = if let Some(c) = any.downcast_ref::<arrow_array::Float64Array>() {
-                c.value(0)
-            } else if let Some(c) = any.downcast_ref::<arrow_array::UInt64Array>() {
-                c.value(0) as f64
-            } else if let Some(c) = any.downcast_ref::<arrow_array::UInt32Array>() {
-                f64::from(c.value(0))
-            } else {
-                panic!("{name} is a {:?} column", col.data_type())
-            };
-            assert_eq!(Some(value), quantity_of(name, &result), "{name}");
-        }
-        let excluded = [
-            "job_index",
-            "job_id",
-            "speed_rad_s",
-            "friction",
-            "clearance_m",
-            "coating_young_pa",
-            "coating_young_scale",
-            "coating_hardening_pa",
-            "coating_hardening_scale",
-            "coating_yield_stress_pa",
-            "coating_yield_stress_scale",
-            "coating_thickness_m",
-            "coating_thickness_scale",
-            "status",
-            "reason",
-            "wear_profile_m",
-            "fourier_peaks",
-            "strain_energy_per_nd_j",
-            "spectrum_amplitude_m",
-            "wall_time_s",
-        ];
-        for (name, _, _) in COLUMNS {
-            assert!(
-                PEAK_QUANTITIES.contains(name) ^ excluded.contains(name),
-                "column {name}: a peak quantity or excluded, not both or neither"
-            );
-        }
-        assert_eq!(quantity_of("wall_time_s", &result), None);
-        // The schema offers the same names.
+    fn the_schema_offers_the_peak_quantities() {
         let schema: serde_json::Value =
             serde_json::from_str(crate::sweep::schema::SWEEP_SCHEMA).unwrap();
         let offered: Vec<&str> = schema["$defs"]["refine"]["properties"]["peak_of"]["enum"]

@@ -23,6 +23,7 @@ use crate::dynamics::numerics::Boundary;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
 pub use crate::dynamics::probes::ProbeSpec;
 use crate::model::build::{CasingSpec, ImpellerSpec};
+pub use crate::sweep::refine::{MIN_REFINE_TOLERANCE, RefineSpec};
 pub use crate::sweep::schema::{SWEEP_SCHEMA, SpecError, SpecIssue, validate_against_schema};
 
 /// JSON Schema's `integer` accepts `2.0`; accept it here too so that a schema-valid spec
@@ -271,33 +272,6 @@ pub struct SpeedAxis {
     pub refine: Option<RefineSpec>,
 }
 
-/// Refinement of the speed axis: after the grid, speeds are added to each speed line (one
-/// combination of the other axes) where its answer changes, round after round, by
-/// [`crate::sweep::refine::next_round`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RefineSpec {
-    /// Tolerance (rad/s, whatever the axis' unit): a boundary is located when its bracket is
-    /// at most this wide, a peak when the distance between its best speed's neighbours is at
-    /// most twice this. > 0, at least [`MIN_REFINE_TOLERANCE`] × the largest grid speed and
-    /// below the largest spacing of the grid's speeds.
-    pub tolerance_rad_s: f64,
-    /// Refined jobs allowed per speed line (≥ 1), over all rounds.
-    #[serde(deserialize_with = "de_usize")]
-    pub max_jobs: usize,
-    /// Bisect between neighbouring speeds whose outcomes differ (`ok` / `unstable`).
-    #[serde(default = "yes")]
-    pub boundary: bool,
-    /// A numeric scalar column of the results table (one of
-    /// [`crate::sweep::refine::PEAK_QUANTITIES`]) whose local maxima along Ω are located.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub peak_of: Option<String>,
-}
-
-fn yes() -> bool {
-    true
-}
-
 /// `count` values evenly spaced from `start` to `stop` inclusive.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -488,12 +462,6 @@ pub const MAX_STEPS_PER_JOB: f64 = 1e9;
 /// Most coating elements per circumferential row η: at 10⁶ an element of a 0.2 m casing is
 /// 1.3 µm long, finer than any tip motion of a step; the rows' state grows with η.
 pub const MAX_COATING_ELEMENTS: usize = 1_000_000;
-
-/// Smallest refinement tolerance, relative to the fastest grid speed. A speed is held to
-/// 2.2e-16 of itself in f64, and a job id tells apart any two different f64 speeds, but two
-/// simulations 1e-9 Ω apart answer the same: a finer tolerance only spends the budget on
-/// speeds no result can tell apart (and on round-off in the brackets' midpoints).
-pub const MIN_REFINE_TOLERANCE: f64 = 1e-9;
 
 /// Pushes an issue when `v` is not finite and > 0.
 fn check_positive(issues: &mut Vec<SpecIssue>, pointer: &str, v: f64, unit: &str) {
@@ -1143,13 +1111,12 @@ impl SweepSpec {
 
 /// Why `name` is refused as `refine.peak_of`, with the closest valid name when one is close.
 fn not_a_peak_quantity(name: &str) -> String {
-    use crate::sweep::refine::PEAK_QUANTITIES;
-    let is_column = crate::sweep::table::COLUMNS.iter().any(|c| c.0 == name);
+    use crate::sweep::refine::{OTHER_COLUMNS, PEAK_QUANTITIES};
     let hint = match crate::sweep::schema::did_you_mean(name, PEAK_QUANTITIES.iter().copied()) {
         Some(best) => format!(", did you mean `{best}`?"),
         None => format!("; one of {}", PEAK_QUANTITIES.join(", ")),
     };
-    if is_column {
+    if OTHER_COLUMNS.contains(&name) {
         format!(
             "`{name}` is a column of the results table but not a result quantity with a \
              maximum along Ω (a grid parameter, the wall time, a list or a text){hint}"
@@ -1850,7 +1817,7 @@ mod tests {
     #[test]
     fn a_refinement_request_is_read_with_its_defaults() {
         let spec = spec_from_value(refined(serde_json::json!(
-            {"tolerance_rad_s": 20.0, "max_jobs": 12, "peak_of": "max_blade_te_radial_m"}
+            {"tolerance_rad_s": 20.0, "max_jobs": 12.0, "peak_of": "max_blade_te_radial_m"}
         )))
         .unwrap();
         let r = spec.grid.speed.refine.unwrap();
