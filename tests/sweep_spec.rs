@@ -135,3 +135,66 @@ fn spec_built_in_code_is_validated_before_writing() {
     assert_eq!(spec_err.issues()[0].path, "/grid/friction/0");
     assert!(!Path::new(&out).exists());
 }
+
+/// A refinement request that cannot work is refused from the file, at its JSON pointer,
+/// before anything is written; a sound one plans the grid's jobs with their usual ids.
+#[test]
+fn refinement_requests_are_checked_up_front_and_keep_the_grids_ids() {
+    let refine = |v: &mut serde_json::Value, r: serde_json::Value| {
+        v["grid"]["speed"] = serde_json::json!({"unit": "rad_s",
+            "range": {"start": 3500, "stop": 5300, "count": 9}, "refine": r});
+    };
+    for (tag, r, want) in [
+        (
+            "tol0",
+            serde_json::json!({"tolerance_rad_s": 0.0, "max_jobs": 4}),
+            "/grid/speed/refine/tolerance_rad_s: ",
+        ),
+        (
+            "tolfine",
+            serde_json::json!({"tolerance_rad_s": 1e-9, "max_jobs": 4}),
+            "/grid/speed/refine/tolerance_rad_s: 1e-9 rad/s is below the float resolution",
+        ),
+        (
+            "budget0",
+            serde_json::json!({"tolerance_rad_s": 20.0, "max_jobs": 0}),
+            "/grid/speed/refine/max_jobs: ",
+        ),
+        (
+            "column",
+            serde_json::json!({"tolerance_rad_s": 20.0, "max_jobs": 4, "peak_of": "max_blade_te_radial"}),
+            "did you mean `max_blade_te_radial_m`?",
+        ),
+        (
+            "nothing",
+            serde_json::json!({"tolerance_rad_s": 20.0, "max_jobs": 4, "boundary": false}),
+            "/grid/speed/refine: asks for nothing",
+        ),
+    ] {
+        let e = load_and_try_run(tag, &with(|v| refine(v, r)));
+        assert!(e.contains(want), "{tag}: {e}");
+    }
+    let e = load_and_try_run(
+        "onespeed",
+        &with(|v| {
+            v["grid"]["speed"]["refine"] =
+                serde_json::json!({"tolerance_rad_s": 1.0, "max_jobs": 4})
+        }),
+    );
+    assert!(
+        e.contains("/grid/speed/refine: refinement needs at least 2 speeds"),
+        "{e}"
+    );
+    // A sound request: the grid's jobs and ids are those of the same grid without it.
+    let mut v = base();
+    refine(
+        &mut v,
+        serde_json::json!({"tolerance_rad_s": 20.0, "max_jobs": 12, "peak_of": "max_blade_te_radial_m"}),
+    );
+    let with_refine = plan(&parse_spec(&v.to_string()).unwrap()).unwrap();
+    v["grid"]["speed"].as_object_mut().unwrap().remove("refine");
+    let without = plan(&parse_spec(&v.to_string()).unwrap()).unwrap();
+    let ids = |p: &rubscan::sweep::Plan| p.jobs.iter().map(|j| j.id.clone()).collect::<Vec<_>>();
+    assert_eq!(with_refine.jobs.len(), 9);
+    assert_eq!(ids(&with_refine), ids(&without));
+}

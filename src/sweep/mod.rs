@@ -16,6 +16,7 @@ pub mod labels;
 pub mod planner;
 pub mod plots;
 pub mod probe_report;
+pub mod refine;
 pub mod report;
 pub mod runner;
 pub mod schema;

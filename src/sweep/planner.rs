@@ -115,8 +115,14 @@ pub struct Job {
 /// The expanded sweep.
 #[derive(Debug, Clone)]
 pub struct Plan {
-    /// Jobs in deterministic order; `jobs[i].index == i`.
+    /// Jobs in deterministic order; `jobs[i].index == i`: the grid's jobs, then the refined
+    /// ones ([`plan_with_speeds`]) by round, speed line and Ω.
     pub jobs: Vec<Job>,
+    /// Refinement round of each job, by index: 0 for the grid's jobs, r for the jobs added by
+    /// round r (the results table's `refinement_round`). Kept beside the jobs rather than in
+    /// [`Job`]: the round is not a parameter of the simulation, and `Job` is built field by
+    /// field elsewhere.
+    pub refinement_rounds: Vec<u32>,
     /// Time steps per job, ⌈duration_s / time_step_s⌉ (always known: the time step has a default).
     pub steps_per_job: Option<u64>,
     /// Work estimate: jobs × steps per job.
@@ -278,8 +284,157 @@ pub fn plan(spec: &SweepSpec) -> Result<Plan, SpecError> {
     Ok(Plan {
         total_steps: steps_per_job.map(|s| s.saturating_mul(n_jobs as u64)),
         steps_per_job,
+        refinement_rounds: vec![0; jobs.len()],
         jobs,
     })
+}
+
+/// A speed added to one speed line by refinement (see [`crate::sweep::refine`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RefinedSpeed {
+    /// The speed line: index over the other axes, as numbered by [`speed_lines`] (line `l`
+    /// holds the grid's jobs `l·n .. (l+1)·n` of an axis of `n` speeds).
+    pub line: usize,
+    /// Rotation speed Ω (rad/s).
+    pub omega_rad_s: f64,
+    /// Refinement round that added it (≥ 1).
+    pub round: u32,
+}
+
+impl Plan {
+    /// Refinement round of job `index` (0 for a grid job; 0 when out of range).
+    pub fn refinement_round(&self, index: usize) -> u32 {
+        self.refinement_rounds.get(index).copied().unwrap_or(0)
+    }
+}
+
+/// Expands a spec into its grid's jobs followed by the refined speeds `extra` as ordinary
+/// jobs: each takes the parameters of its line's grid jobs with its own Ω, so its id is the
+/// one a grid job at that Ω would have. The refined jobs follow the grid's in the order
+/// (round, line, Ω), whatever the order of `extra`, so indices of earlier rounds never move.
+///
+/// Errors: the spec's issues; refined speeds on a spec without `grid.speed.refine`; a
+/// line that does not exist; a round of 0; an Ω outside the grid's speeds (the models were
+/// checked over those); more refined speeds on a line than `max_jobs`; a speed that is
+/// already a job of its line.
+pub fn plan_with_speeds(spec: &SweepSpec, extra: &[RefinedSpeed]) -> Result<Plan, SpecError> {
+    let mut plan = plan(spec)?;
+    if extra.is_empty() {
+        return Ok(plan);
+    }
+    let pointer = "/grid/speed/refine";
+    let Some(refine) = &spec.grid.speed.refine else {
+        return Err(SpecError::one(pointer, "the spec asks for no refinement"));
+    };
+    let speeds = spec.grid.speed.values_rad_s();
+    let (slowest, fastest) = speeds
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &w| {
+            (a.min(w), b.max(w))
+        });
+    // Refinement is refused on a zipped speed axis, so the grid's jobs form whole lines.
+    let lines = plan.jobs.len() / speeds.len();
+    let mut extra = extra.to_vec();
+    extra.sort_by(|a, b| {
+        (a.round, a.line)
+            .cmp(&(b.round, b.line))
+            .then(a.omega_rad_s.total_cmp(&b.omega_rad_s))
+    });
+    let mut per_line = vec![0usize; lines];
+    for e in &extra {
+        let bad = |reason: String| Err(SpecError::one(pointer, reason));
+        if e.line >= lines {
+            return bad(format!(
+                "refined speed on line {}: the grid has {lines} speed lines",
+                e.line
+            ));
+        }
+        if e.round == 0 {
+            return bad(format!(
+                "refined speed {} rad/s in round 0 (the grid's round)",
+                e.omega_rad_s
+            ));
+        }
+        if !(slowest..=fastest).contains(&e.omega_rad_s) {
+            return bad(format!(
+                "refined speed {} rad/s lies outside the grid's speeds [{slowest}, {fastest}] rad/s",
+                e.omega_rad_s
+            ));
+        }
+        per_line[e.line] += 1;
+        if per_line[e.line] > refine.max_jobs {
+            return bad(format!(
+                "line {} has more refined speeds than max_jobs = {}",
+                e.line, refine.max_jobs
+            ));
+        }
+    }
+    let context = Arc::clone(&plan.jobs[0].context);
+    let context_json = context_hash_json(&context);
+    let mut seen: std::collections::HashMap<String, usize> =
+        plan.jobs.iter().map(|j| (j.id.clone(), j.index)).collect();
+    for e in extra {
+        let index = plan.jobs.len();
+        let params = JobParams {
+            speed_rad_s: e.omega_rad_s,
+            ..plan.jobs[e.line * speeds.len()].params
+        };
+        let id = job_id(&params, &context_json);
+        if let Some(prev) = seen.insert(id.clone(), index) {
+            return Err(SpecError::one(
+                pointer,
+                format!(
+                    "refined speed {} rad/s on line {} is already job {prev}",
+                    e.omega_rad_s, e.line
+                ),
+            ));
+        }
+        plan.jobs.push(Job {
+            index,
+            id,
+            params,
+            context: Arc::clone(&context),
+        });
+        plan.refinement_rounds.push(e.round);
+    }
+    plan.total_steps = plan
+        .steps_per_job
+        .map(|s| s.saturating_mul(plan.jobs.len() as u64));
+    Ok(plan)
+}
+
+/// The plan's jobs grouped into speed lines (one per combination of the axes other than
+/// speed): each line's job indices in increasing Ω. Lines are numbered in the order of
+/// their first job, so that line `l` holds the grid's jobs `l·n .. (l+1)·n` (speed varies
+/// fastest) and any refined jobs with the same other parameters.
+pub fn speed_lines(plan: &Plan) -> Vec<Vec<usize>> {
+    let mut lines: Vec<Vec<usize>> = Vec::new();
+    let mut line_of: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    for job in &plan.jobs {
+        // The line is what is left of the parameters without Ω; their JSON is an exact key
+        // (shortest round-trip floats), unlike a float comparison with a tolerance.
+        let key = serde_json::to_string(&JobParams {
+            speed_rad_s: 0.0,
+            ..job.params
+        })
+        .unwrap_or_default();
+        let next = lines.len();
+        let l = *line_of.entry(key).or_insert(next);
+        if l == next {
+            lines.push(Vec::new());
+        }
+        lines[l].push(job.index);
+    }
+    for line in &mut lines {
+        line.sort_by(|&a, &b| {
+            plan.jobs[a]
+                .params
+                .speed_rad_s
+                .total_cmp(&plan.jobs[b].params.speed_rad_s)
+                .then(a.cmp(&b))
+        });
+    }
+    lines
 }
 
 /// The JSON of the context that enters the job id: ROM paths reduced to their file
@@ -385,6 +540,131 @@ mod tests {
         s4.scenario.duration_s = 0.02;
         let p4 = plan(&s4).unwrap();
         assert!(p4.jobs.iter().all(|j| !ids1.contains(&j.id.as_str())));
+    }
+
+    fn refined_grid(speeds: &[f64], refine: bool) -> SweepSpec {
+        let mut g = serde_json::json!({
+            "speed": {"unit": "rad_s", "values": speeds},
+            "friction": [0.0, 0.1],
+            "clearance_m": [1e-4]
+        });
+        if refine {
+            g["speed"]["refine"] = serde_json::json!({"tolerance_rad_s": 5.0, "max_jobs": 3,
+                "peak_of": "max_blade_te_radial_m"});
+        }
+        spec(g)
+    }
+
+    #[test]
+    fn a_refinement_request_keeps_the_grids_ids() {
+        let plain = plan(&refined_grid(&[100.0, 200.0, 300.0], false)).unwrap();
+        let refined = plan(&refined_grid(&[100.0, 200.0, 300.0], true)).unwrap();
+        let ids = |p: &Plan| p.jobs.iter().map(|j| j.id.clone()).collect::<Vec<_>>();
+        assert_eq!(ids(&plain), ids(&refined));
+        assert_eq!(refined.refinement_rounds, vec![0; 6]);
+    }
+
+    #[test]
+    fn a_refined_job_is_the_grid_job_at_its_speed() {
+        let s = refined_grid(&[100.0, 200.0, 300.0], true);
+        let extra = [
+            RefinedSpeed {
+                line: 1,
+                omega_rad_s: 250.0,
+                round: 2,
+            },
+            RefinedSpeed {
+                line: 1,
+                omega_rad_s: 150.0,
+                round: 1,
+            },
+            RefinedSpeed {
+                line: 0,
+                omega_rad_s: 150.0,
+                round: 1,
+            },
+        ];
+        let p = plan_with_speeds(&s, &extra).unwrap();
+        assert_eq!(p.jobs.len(), 9);
+        assert_eq!(p.total_steps, Some(900));
+        assert!(p.jobs.iter().enumerate().all(|(i, j)| j.index == i));
+        // Grid first, then (round, line, Ω), whatever the order given.
+        let added: Vec<(f64, f64, u32)> = p.jobs[6..]
+            .iter()
+            .map(|j| {
+                (
+                    j.params.speed_rad_s,
+                    j.params.friction,
+                    p.refinement_round(j.index),
+                )
+            })
+            .collect();
+        assert_eq!(added, [(150.0, 0.0, 1), (150.0, 0.1, 1), (250.0, 0.1, 2)]);
+        let mut reversed = extra;
+        reversed.reverse();
+        let q = plan_with_speeds(&s, &reversed).unwrap();
+        assert!(p.jobs.iter().zip(&q.jobs).all(|(a, b)| a.id == b.id));
+        // Each refined job is the job a grid holding its speed would plan, id and all.
+        let dense = plan(&refined_grid(&[100.0, 150.0, 200.0, 250.0, 300.0], false)).unwrap();
+        for j in &p.jobs {
+            let twin = dense
+                .jobs
+                .iter()
+                .find(|k| k.id == j.id)
+                .unwrap_or_else(|| panic!("{:?}", j.params));
+            assert_eq!(twin.params, j.params);
+            assert_eq!(*twin.context, *j.context);
+        }
+        // Speed lines: each line's jobs in increasing Ω, grid and refined together.
+        let lines = speed_lines(&p);
+        let speeds = |l: &[usize]| {
+            l.iter()
+                .map(|&i| p.jobs[i].params.speed_rad_s)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(lines.len(), 2);
+        assert_eq!(speeds(&lines[0]), [100.0, 150.0, 200.0, 300.0]);
+        assert_eq!(speeds(&lines[1]), [100.0, 150.0, 200.0, 250.0, 300.0]);
+        assert!(lines[1].iter().all(|&i| p.jobs[i].params.friction == 0.1));
+    }
+
+    #[test]
+    fn refined_speeds_that_cannot_be_jobs_are_refused() {
+        let s = refined_grid(&[100.0, 200.0, 300.0], true);
+        let at = |line, omega_rad_s, round| RefinedSpeed {
+            line,
+            omega_rad_s,
+            round,
+        };
+        for (extra, needle) in [
+            (vec![at(2, 150.0, 1)], "2 speed lines"),
+            (vec![at(0, 150.0, 0)], "round 0"),
+            (vec![at(0, 350.0, 1)], "outside the grid's speeds"),
+            (vec![at(0, f64::NAN, 1)], "outside the grid's speeds"),
+            (vec![at(0, 200.0, 1)], "already job 1"),
+            (vec![at(0, 150.0, 1), at(0, 150.0, 2)], "already job"),
+            (
+                vec![
+                    at(0, 110.0, 1),
+                    at(0, 120.0, 1),
+                    at(0, 130.0, 2),
+                    at(0, 140.0, 3),
+                ],
+                "max_jobs = 3",
+            ),
+        ] {
+            let e = plan_with_speeds(&s, &extra).unwrap_err().to_string();
+            assert!(
+                e.contains("/grid/speed/refine: ") && e.contains(needle),
+                "{needle}: {e}"
+            );
+        }
+        let plain = refined_grid(&[100.0, 200.0, 300.0], false);
+        let e = plan_with_speeds(&plain, &[at(0, 150.0, 1)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("asks for no refinement"), "{e}");
+        assert_eq!(plan_with_speeds(&plain, &[]).unwrap().jobs.len(), 6);
     }
 
     #[test]

@@ -113,7 +113,7 @@ pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
             })
             .map(|e| SpecIssue {
                 path: e.instance_path().as_str().to_string(),
-                reason: e.to_string(),
+                reason: format!("{e}{}", enum_hint(&e)),
             }),
     );
     if issues.is_empty() {
@@ -121,6 +121,20 @@ pub fn validate_against_schema(value: &Value) -> Result<(), SpecError> {
     } else {
         Err(SpecError::Invalid(issues))
     }
+}
+
+/// For a string outside an `enum` of strings (a misspelled `peak_of` column or unit), the
+/// closest allowed value: `, did you mean `max_blade_te_radial_m`?`; else nothing.
+fn enum_hint(e: &jsonschema::ValidationError<'_>) -> String {
+    let jsonschema::error::ValidationErrorKind::Enum { options } = e.kind() else {
+        return String::new();
+    };
+    let (Some(word), Some(options)) = (e.instance().as_str(), options.as_array()) else {
+        return String::new();
+    };
+    did_you_mean(word, options.iter().filter_map(Value::as_str))
+        .map(|best| format!(", did you mean `{best}`?"))
+        .unwrap_or_default()
 }
 
 /// Rewrites every integral number written as a float (`2.0`, `1e3`) as an integer, in place.

@@ -23,6 +23,7 @@ use crate::dynamics::numerics::Boundary;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
 pub use crate::dynamics::probes::ProbeSpec;
 use crate::model::build::{CasingSpec, ImpellerSpec};
+pub use crate::sweep::refine::{MIN_REFINE_TOLERANCE, RefineSpec};
 pub use crate::sweep::schema::{SWEEP_SCHEMA, SpecError, SpecIssue, validate_against_schema};
 
 /// JSON Schema's `integer` accepts `2.0`; accept it here too so that a schema-valid spec
@@ -265,6 +266,10 @@ pub struct SpeedAxis {
     /// Evenly spaced speeds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub range: Option<Range>,
+    /// Speeds added after the grid where the answer changes (issue 37 item 3); `None`: the
+    /// grid's speeds only. Not part of any job's id.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refine: Option<RefineSpec>,
 }
 
 /// `count` values evenly spaced from `start` to `stop` inclusive.
@@ -568,6 +573,7 @@ impl SweepSpec {
         self.validate_applicability(&mut issues);
         self.validate_speed(&mut issues);
         self.validate_grid(&mut issues);
+        self.validate_refine(&mut issues);
         if let Some(limit) = self.job_time_limit_s {
             check_positive(&mut issues, "/job_time_limit_s", limit, " s");
         }
@@ -950,6 +956,105 @@ impl SweepSpec {
         }
     }
 
+    /// A refinement request that cannot work is refused before anything runs: too few
+    /// speeds, a zipped speed axis, nothing asked, a tolerance that is not positive, below the
+    /// float resolution of the speeds or unable to shrink any bracket, a budget of 0 or one
+    /// that takes the sweep past [`MAX_JOBS`], and a `peak_of` that is not a numeric scalar
+    /// column of the results table.
+    fn validate_refine(&self, issues: &mut Vec<SpecIssue>) {
+        let Some(r) = &self.grid.speed.refine else {
+            return;
+        };
+        let mut push = |field: &str, reason: String| {
+            issues.push(SpecIssue {
+                path: format!("/grid/speed/refine{field}"),
+                reason,
+            })
+        };
+        let mut speeds = self.grid.speed.values_rad_s();
+        if speeds.len() < 2 {
+            push(
+                "",
+                format!(
+                    "refinement needs at least 2 speeds on the axis to bracket anything, it has {}",
+                    speeds.len()
+                ),
+            );
+        }
+        if self.grid.zip.contains(&AxisName::Speed) {
+            push(
+                "",
+                "a speed axis zipped with other axes has no speed lines to refine (each \
+                 combination of the other axes has a single speed)"
+                    .into(),
+            );
+        }
+        if !r.boundary && r.peak_of.is_none() {
+            push(
+                "",
+                "asks for nothing: set `boundary` to true, give `peak_of`, or both".into(),
+            );
+        }
+        let tol = r.tolerance_rad_s;
+        if !(tol.is_finite() && tol > 0.0) {
+            push(
+                "/tolerance_rad_s",
+                format!("{tol} rad/s must be finite and > 0"),
+            );
+        } else if speeds.len() >= 2 && speeds.iter().all(|w| w.is_finite() && *w > 0.0) {
+            speeds.sort_by(f64::total_cmp);
+            let fastest = speeds[speeds.len() - 1];
+            let floor = MIN_REFINE_TOLERANCE * fastest;
+            let widest = speeds.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+            if tol < floor {
+                push(
+                    "/tolerance_rad_s",
+                    format!(
+                        "{tol:e} rad/s is below the float resolution of the grid's speeds: at \
+                         least {MIN_REFINE_TOLERANCE:e} × the fastest ({fastest} rad/s), \
+                         {floor:.3e} rad/s"
+                    ),
+                );
+            } else if tol >= widest {
+                push(
+                    "/tolerance_rad_s",
+                    format!(
+                        "{tol} rad/s cannot shrink any bracket: the grid's widest spacing is \
+                         {widest} rad/s (the tolerance is in rad/s whatever the axis' unit)"
+                    ),
+                );
+            }
+        }
+        self.validate_refine_budget(r, &mut push);
+        if let Some(q) = &r.peak_of
+            && !crate::sweep::refine::PEAK_QUANTITIES.contains(&q.as_str())
+        {
+            push("/peak_of", not_a_peak_quantity(q));
+        }
+    }
+
+    /// `max_jobs` ≥ 1, and the coarse grid plus every line's refined jobs stay within
+    /// [`MAX_JOBS`].
+    fn validate_refine_budget(&self, r: &RefineSpec, push: &mut impl FnMut(&str, String)) {
+        if r.max_jobs == 0 {
+            push("/max_jobs", "0 is less than the minimum of 1".into());
+            return;
+        }
+        let coarse = self.grid.job_count();
+        let lines = coarse / (self.grid.speed.len().max(1) as u64);
+        let total = coarse.saturating_add(lines.saturating_mul(r.max_jobs as u64));
+        if total > MAX_JOBS {
+            push(
+                "/max_jobs",
+                format!(
+                    "{} refined jobs on each of the {lines} speed lines take the sweep to {total} \
+                     jobs, more than the {MAX_JOBS} a sweep may hold",
+                    r.max_jobs
+                ),
+            );
+        }
+    }
+
     fn validate_zip(&self, issues: &mut Vec<SpecIssue>) {
         let zip = &self.grid.zip;
         if zip.is_empty() {
@@ -1001,6 +1106,23 @@ impl SweepSpec {
         {
             *p = base.join(&*p);
         }
+    }
+}
+
+/// Why `name` is refused as `refine.peak_of`, with the closest valid name when one is close.
+fn not_a_peak_quantity(name: &str) -> String {
+    use crate::sweep::refine::{OTHER_COLUMNS, PEAK_QUANTITIES};
+    let hint = match crate::sweep::schema::did_you_mean(name, PEAK_QUANTITIES.iter().copied()) {
+        Some(best) => format!(", did you mean `{best}`?"),
+        None => format!("; one of {}", PEAK_QUANTITIES.join(", ")),
+    };
+    if OTHER_COLUMNS.contains(&name) {
+        format!(
+            "`{name}` is a column of the results table but not a result quantity with a \
+             maximum along Ω (a grid parameter, the wall time, a list or a text){hint}"
+        )
+    } else {
+        format!("`{name}` is not a numeric scalar column of the results table{hint}")
     }
 }
 
@@ -1583,8 +1705,14 @@ mod tests {
                 speed: SpeedAxis {
                     unit: SpeedUnit::RadS,
                     reference_rad_s: None,
-                    values: Some(vec![1.0]),
+                    values: Some(vec![1.0, 2.0]),
                     range: None,
+                    refine: Some(RefineSpec {
+                        tolerance_rad_s: 0.1,
+                        max_jobs: 4,
+                        boundary: false,
+                        peak_of: Some("max_blade_te_radial_m".into()),
+                    }),
                 },
                 friction: vec![0.1],
                 clearance_m: Some(vec![1e-4]),
@@ -1616,6 +1744,7 @@ mod tests {
                 stop: 2.0,
                 count: 2,
             }),
+            refine: None,
         };
         b.grid.coating = Some(CoatingGrid {
             young: axis(true),
@@ -1676,6 +1805,163 @@ mod tests {
         );
         assert!(in_schema.contains("/models/impeller/builtin/geometry/material/young"));
         assert!(in_schema.len() > 80, "{}", in_schema.len());
+    }
+
+    fn refined(refine: Value) -> Value {
+        let mut v = base();
+        v["grid"]["speed"] = serde_json::json!({"unit": "rad_s",
+            "range": {"start": 3500, "stop": 5300, "count": 9}, "refine": refine});
+        v
+    }
+
+    #[test]
+    fn a_refinement_request_is_read_with_its_defaults() {
+        let spec = spec_from_value(refined(serde_json::json!(
+            {"tolerance_rad_s": 20.0, "max_jobs": 12.0, "peak_of": "max_blade_te_radial_m"}
+        )))
+        .unwrap();
+        let r = spec.grid.speed.refine.unwrap();
+        assert_eq!(
+            (r.tolerance_rad_s, r.max_jobs, r.boundary),
+            (20.0, 12, true)
+        );
+        assert_eq!(r.peak_of.as_deref(), Some("max_blade_te_radial_m"));
+        // An rpm axis takes its tolerance in rad/s: 60 rpm apart is 2π rad/s.
+        let mut v = refined(serde_json::json!({"tolerance_rad_s": 6.0, "max_jobs": 1}));
+        v["grid"]["speed"]["unit"] = serde_json::json!("rpm");
+        v["grid"]["speed"]["range"] = serde_json::json!({"start": 600, "stop": 660, "count": 2});
+        assert!(spec_from_value(v.clone()).is_ok());
+        v["grid"]["speed"]["refine"]["tolerance_rad_s"] = serde_json::json!(6.3);
+        let i = issues_of(v);
+        assert!(
+            i.iter()
+                .any(|s| s
+                    .starts_with("/grid/speed/refine/tolerance_rad_s: 6.3 rad/s cannot shrink")),
+            "{i:?}"
+        );
+    }
+
+    #[test]
+    fn a_refinement_request_that_cannot_work_is_refused_at_its_pointer() {
+        let ok = serde_json::json!({"tolerance_rad_s": 20.0, "max_jobs": 12});
+        let cases: Vec<(Value, &str, &str)> = vec![
+            // Schema stage: bounds, types, unknown fields, unknown column.
+            (
+                serde_json::json!({"tolerance_rad_s": 0.0}),
+                "/grid/speed/refine/tolerance_rad_s",
+                "",
+            ),
+            (
+                serde_json::json!({"tolerance_rad_s": -1.0}),
+                "/grid/speed/refine/tolerance_rad_s",
+                "",
+            ),
+            (
+                serde_json::json!({"max_jobs": 0}),
+                "/grid/speed/refine/max_jobs",
+                "",
+            ),
+            (
+                serde_json::json!({"max_jobs": 1.5}),
+                "/grid/speed/refine/max_jobs",
+                "",
+            ),
+            (
+                serde_json::json!({"tolerence_rad_s": 20.0}),
+                "/grid/speed/refine",
+                "did you mean `tolerance_rad_s`?",
+            ),
+            (
+                serde_json::json!({"peak_of": "max_blade_te_radial"}),
+                "/grid/speed/refine/peak_of",
+                "did you mean `max_blade_te_radial_m`?",
+            ),
+            // Semantic stage: what a schema cannot say.
+            (
+                serde_json::json!({"tolerance_rad_s": 1e-7}),
+                "/grid/speed/refine/tolerance_rad_s",
+                "float resolution",
+            ),
+            (
+                serde_json::json!({"tolerance_rad_s": 225.0}),
+                "/grid/speed/refine/tolerance_rad_s",
+                "cannot shrink any bracket",
+            ),
+            (
+                serde_json::json!({"boundary": false}),
+                "/grid/speed/refine",
+                "asks for nothing",
+            ),
+            (
+                serde_json::json!({"max_jobs": 100000}),
+                "/grid/speed/refine/max_jobs",
+                "more than the 100000",
+            ),
+        ];
+        for (edit, path, needle) in cases {
+            let mut r = ok.clone();
+            for (k, x) in edit.as_object().unwrap() {
+                r[k] = x.clone();
+            }
+            let i = issues_of(refined(r));
+            assert!(
+                i.iter()
+                    .any(|s| s.starts_with(&format!("{path}: ")) && s.contains(needle)),
+                "{edit}: {path} … {needle} not in {i:?}"
+            );
+        }
+        // One speed, a zipped speed axis.
+        let mut v = refined(ok.clone());
+        v["grid"]["speed"]["range"] = serde_json::json!({"start": 3500, "stop": 3500, "count": 1});
+        let i = issues_of(v);
+        assert!(
+            i.iter()
+                .any(|s| s.starts_with("/grid/speed/refine: refinement needs at least 2 speeds")),
+            "{i:?}"
+        );
+        let mut v = refined(ok.clone());
+        v["grid"]["speed"]["range"]["count"] = serde_json::json!(2);
+        v["grid"]["zip"] = serde_json::json!(["speed", "friction"]);
+        let i = issues_of(v);
+        assert!(
+            i.iter()
+                .any(|s| s.starts_with("/grid/speed/refine: a speed axis zipped")),
+            "{i:?}"
+        );
+        // A spec built in code meets the same rules, `peak_of` with its suggestion.
+        let mut spec = spec_from_value(refined(ok)).unwrap();
+        let r = spec.grid.speed.refine.as_mut().unwrap();
+        r.tolerance_rad_s = f64::NAN;
+        r.max_jobs = 0;
+        r.peak_of = Some("max_blade_te_radial".into());
+        let i: Vec<String> = spec
+            .validate()
+            .unwrap_err()
+            .issues()
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        assert_eq!(i.len(), 3, "{i:?}");
+        assert!(
+            i[0].starts_with("/grid/speed/refine/tolerance_rad_s: NaN"),
+            "{i:?}"
+        );
+        assert!(i[1].starts_with("/grid/speed/refine/max_jobs: 0"), "{i:?}");
+        assert!(
+            i[2].starts_with("/grid/speed/refine/peak_of: ")
+                && i[2].contains("did you mean `max_blade_te_radial_m`?"),
+            "{i:?}"
+        );
+        // A column that is not a result quantity is named as such.
+        let r = spec.grid.speed.refine.as_mut().unwrap();
+        r.tolerance_rad_s = 20.0;
+        r.max_jobs = 1;
+        r.peak_of = Some("wall_time_s".into());
+        let i = spec.validate().unwrap_err().to_string();
+        assert!(
+            i.contains("`wall_time_s` is a column of the results table but not a result quantity"),
+            "{i}"
+        );
     }
 
     #[test]

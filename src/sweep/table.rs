@@ -868,4 +868,71 @@ mod tests {
         assert!(err.contains("results.parquet"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
+
+    /// Refinement's `quantity_of` reads what the table writes, and every column is either a
+    /// peak quantity or one of the other columns (a new column must choose its side).
+    #[test]
+    fn peak_quantities_are_the_tables_numeric_result_columns() {
+        use crate::sweep::refine::{OTHER_COLUMNS, PEAK_QUANTITIES, quantity_of};
+        use crate::sweep::{CriticalSpeed, JobResult, Maxima, Spectrum};
+        use arrow_array::Array;
+        let result = JobResult {
+            maxima: Maxima {
+                blade_le_radial_m: 1e-4,
+                blade_te_radial_m: 2e-4,
+                casing_radial_m: 3e-4,
+                contact_normal_force_n: 12.5,
+                coating_force_n: 0.5,
+            },
+            residual_penetration_m: 1e-13,
+            steps_over_gap_tolerance: Some(3),
+            critical_speed: Some(CriticalSpeed {
+                speed_rad_s: 6891.0,
+                nodal_diameter: 5,
+                compatibility: 0.135,
+            }),
+            spectrum: Some(Spectrum {
+                df_hz: 83.3,
+                amplitude_m: vec![1.0],
+            }),
+            ..JobResult::default()
+        };
+        let record = JobRecord {
+            format_version: crate::sweep::checkpoint::JOB_RECORD_VERSION,
+            id: "a".into(),
+            params: JobParams {
+                speed_rad_s: 1.0,
+                friction: 0.1,
+                clearance_m: None,
+                coating: Default::default(),
+            },
+            status: JobStatus::Ok,
+            result: Some(result.clone()),
+            wall_time_s: 1.0,
+        };
+        let batch = results_batch(&[(0, record)]).unwrap();
+        for &name in PEAK_QUANTITIES {
+            let col = batch
+                .column_by_name(name)
+                .unwrap_or_else(|| panic!("{name}"));
+            let any = col.as_any();
+            let value = if let Some(c) = any.downcast_ref::<arrow_array::Float64Array>() {
+                c.value(0)
+            } else if let Some(c) = any.downcast_ref::<arrow_array::UInt64Array>() {
+                c.value(0) as f64
+            } else if let Some(c) = any.downcast_ref::<arrow_array::UInt32Array>() {
+                f64::from(c.value(0))
+            } else {
+                panic!("{name} is a {:?} column", col.data_type())
+            };
+            assert_eq!(Some(value), quantity_of(name, &result), "{name}");
+        }
+        for (name, _, _) in COLUMNS {
+            assert!(
+                PEAK_QUANTITIES.contains(name) ^ OTHER_COLUMNS.contains(name),
+                "column {name}: a peak quantity or excluded, not both or neither"
+            );
+        }
+        assert_eq!(quantity_of("wall_time_s", &result), None);
+    }
 }
