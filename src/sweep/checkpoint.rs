@@ -49,6 +49,13 @@ pub struct JobRecord {
     pub result: Option<JobResult>,
     /// Wall-clock time of the job (s).
     pub wall_time_s: f64,
+    /// Refinement round that added the job: 0 for the grid (not written then).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub refinement_round: u32,
+}
+
+fn is_zero(r: &u32) -> bool {
+    *r == 0
 }
 
 impl JobRecord {
@@ -66,6 +73,7 @@ impl JobRecord {
             status,
             result,
             wall_time_s,
+            refinement_round: 0,
         }
     }
 

@@ -18,6 +18,7 @@ pub mod plots;
 pub mod probe_report;
 pub mod refine;
 pub mod report;
+pub mod rounds;
 pub mod runner;
 pub mod schema;
 pub mod simulator;

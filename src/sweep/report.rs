@@ -794,6 +794,7 @@ mod tests {
                 ..Default::default()
             }),
             wall_time_s: 0.0,
+            refinement_round: 0,
         }
     }
 

@@ -18,7 +18,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::checkpoint::{JobRecord, Outcomes, read_record, write_json_atomic, write_record};
-use super::planner::{Job, Plan, plan};
+use super::planner::{Job, Plan};
+use super::rounds::refined_plan;
+use super::slurm::shard_dirs;
 use super::spec::SweepSpec;
 use super::table::write_results;
 use super::{JobSimulator, JobSteps, checkpoint};
@@ -437,18 +439,98 @@ pub fn run_sweep(
     let started_unix_s = now_unix_s();
     let t0 = Instant::now();
     validate_shard(opts.shard)?;
-    let plan: Plan = plan(spec).map_err(|e| anyhow!(e))?;
     let out = &opts.output_dir;
-    let shard_jobs: Vec<&Job> = plan
-        .jobs
-        .iter()
-        .filter(|j| opts.shard.is_none_or(|(i, n)| j.index % n == i))
-        .collect();
+    let dirs = record_dirs(out, opts.shard);
+    let finished = |job: &Job| {
+        dirs.iter()
+            .find_map(|d| read_record(d, &job.id).ok().flatten())
+    };
+    let mut plan = refined_plan(spec, &finished).map_err(|e| anyhow!(e))?;
     check_output_dir(out, spec, opts.shard)?;
-
     std::fs::create_dir_all(checkpoint::jobs_dir(out))
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
 
+    let mut ran = 0;
+    loop {
+        ran += run_round(spec, &plan, opts, sim, started_unix_s, t0)?;
+        if opts.cancel.load(Ordering::SeqCst) {
+            break;
+        }
+        // The next refinement round, once every job of this one is finished (in this shard's
+        // sibling directories too).
+        let next = refined_plan(spec, &finished).map_err(|e| anyhow!(e))?;
+        if next.jobs.len() == plan.jobs.len() {
+            break;
+        }
+        let round = next.refinement_rounds.last().copied().unwrap_or(0);
+        eprintln!(
+            "[sweep] refinement round {round}: {} new speeds",
+            next.jobs.len() - plan.jobs.len()
+        );
+        plan = next;
+    }
+    let shard_jobs = shard_jobs(&plan, opts.shard);
+    let (records, _) = read_records(out, shard_jobs.iter().copied());
+    let cancelled = opts.cancel.load(Ordering::SeqCst);
+    let skipped = records.len().saturating_sub(ran);
+    let summary = summarise(
+        &plan,
+        &shard_jobs,
+        &records,
+        skipped,
+        ran,
+        cancelled,
+        t0,
+        out,
+    );
+    write_results(&summary.results_path, &records)?;
+    ManifestContext {
+        spec,
+        plan: &plan,
+        opts,
+        started_unix_s,
+    }
+    .write(out, &summary)?;
+    Ok(summary)
+}
+
+/// The jobs of `plan` in `shard` (all of them without sharding).
+fn shard_jobs(plan: &Plan, shard: Option<(usize, usize)>) -> Vec<&Job> {
+    plan.jobs
+        .iter()
+        .filter(|j| shard.is_none_or(|(i, n)| j.index % n == i))
+        .collect()
+}
+
+/// Where the records of a run's jobs may be: its own directory and, for a shard in the
+/// layout of [`shard_dir`](super::slurm::shard_dir), its sibling shards' and the merged
+/// sweep's (a refinement round needs every job of the round before it, whichever shard
+/// ran it).
+fn record_dirs(out: &Path, shard: Option<(usize, usize)>) -> Vec<PathBuf> {
+    let mut dirs = vec![out.to_path_buf()];
+    let sweep_dir = out
+        .parent()
+        .filter(|p| p.file_name().is_some_and(|n| n == "shards"))
+        .and_then(Path::parent);
+    if let (Some((_, n)), Some(sweep_dir)) = (shard, sweep_dir) {
+        dirs.extend(shard_dirs(sweep_dir, n).into_iter().filter(|d| d != out));
+        dirs.push(sweep_dir.to_path_buf());
+    }
+    dirs
+}
+
+/// Runs the unfinished jobs of `plan` in the run's shard (failed ones too with
+/// `retry_failed`); returns how many ran. The manifest says incomplete while they run.
+fn run_round(
+    spec: &SweepSpec,
+    plan: &Plan,
+    opts: &RunOptions,
+    sim: &dyn JobSimulator,
+    started_unix_s: f64,
+    t0: Instant,
+) -> Result<usize> {
+    let out = &opts.output_dir;
+    let shard_jobs = shard_jobs(plan, opts.shard);
     let mut pending = Vec::new();
     let mut skipped = 0;
     for &job in &shard_jobs {
@@ -464,18 +546,21 @@ pub fn run_sweep(
             }
         }
     }
+    if pending.is_empty() {
+        return Ok(0);
+    }
 
     // A manifest from the start, so that `rubscan status` and `merge` know the spec and
     // shard of a run still going (or killed); it says incomplete until the end.
     let ctx = ManifestContext {
         spec,
-        plan: &plan,
+        plan,
         opts,
         started_unix_s,
     };
     // Unreadable records were named in the warnings above.
     let (records, _) = read_records(out, shard_jobs.iter().copied());
-    let mut early = summarise(&plan, &shard_jobs, &records, skipped, 0, false, t0, out);
+    let mut early = summarise(plan, &shard_jobs, &records, skipped, 0, false, t0, out);
     // Failed jobs about to be retried are not finished yet.
     early.unfinished = early.unfinished.max(pending.len());
     ctx.write(out, &early)?;
@@ -502,9 +587,10 @@ pub fn run_sweep(
                 return;
             }
             let mut steps = reporter.job_steps(&opts.steps_done);
-            let Some(rec) = execute(job, sim, cancel, &mut steps) else {
+            let Some(mut rec) = execute(job, sim, cancel, &mut steps) else {
                 return;
             };
+            rec.refinement_round = plan.refinement_round(job.index);
             if let Err(e) = write_record(out, &rec) {
                 // A write failure (disk full…) stops the sweep like a cancellation.
                 cancel.store(true, Ordering::SeqCst);
@@ -523,22 +609,7 @@ pub fn run_sweep(
         return Err(e);
     }
 
-    let (records, _) = read_records(out, shard_jobs.iter().copied());
-    let cancelled = opts.cancel.load(Ordering::SeqCst);
-    let ran = ran.into_inner();
-    let summary = summarise(
-        &plan,
-        &shard_jobs,
-        &records,
-        skipped,
-        ran,
-        cancelled,
-        t0,
-        out,
-    );
-    write_results(&summary.results_path, &records)?;
-    ctx.write(out, &summary)?;
-    Ok(summary)
+    Ok(ran.into_inner())
 }
 
 /// The summary of a shard's run from the records of its finished jobs.
@@ -663,7 +734,9 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     check_shard_set(shard_dirs, &manifests)?;
     // The merged table is an unsharded run's: its own -o must not hold another's results.
     check_output_dir(out_dir, &manifest.spec, None)?;
-    let plan = plan(&manifest.spec).map_err(|e| anyhow!(e))?;
+    let finished =
+        |job: &Job| (shard_dirs.iter()).find_map(|d| read_record(d, &job.id).ok().flatten());
+    let plan = refined_plan(&manifest.spec, &finished).map_err(|e| anyhow!(e))?;
     std::fs::create_dir_all(checkpoint::jobs_dir(out_dir))
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
     let mut records = Vec::new();

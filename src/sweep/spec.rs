@@ -1779,6 +1779,7 @@ mod tests {
         });
         f.numerics.boundary = Boundary::Massless;
         f.numerics.mode_cutoff_hz = Some(5e4);
+        f.numerics.stop_on_runaway = false;
         f.numerics.time_step = Some(2e-6);
         vec![a, b, c, d, e, f]
     }

@@ -9,8 +9,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 
+use super::checkpoint::read_record;
 use super::checkpoint::{JobStatus, Outcomes};
-use super::planner::plan;
+use super::planner::Job;
+use super::rounds::refined_plan;
 use super::runner::{Manifest, load_records, read_manifest, read_manifest_if_any};
 use super::slurm::shard_dirs;
 
@@ -128,7 +130,13 @@ fn units(out: &Path) -> Result<(Manifest, Vec<Unit>)> {
 /// `shards/<i>-of-<n>`).
 pub fn status(out: &Path) -> Result<SweepStatus> {
     let (manifest, units) = units(out)?;
-    let plan = plan(&manifest.spec).map_err(|e| anyhow!(e))?;
+    // A refined sweep's plan grows round by round with the jobs finished in any shard.
+    let dirs: Vec<&PathBuf> = units.iter().map(|(_, d)| d).collect();
+    let finished = |job: &Job| {
+        dirs.iter()
+            .find_map(|d| read_record(d, &job.id).ok().flatten())
+    };
+    let plan = refined_plan(&manifest.spec, &finished).map_err(|e| anyhow!(e))?;
     let mut shards = Vec::new();
     let mut ok_times = Vec::new();
     for (shard, dir) in units {

@@ -82,6 +82,11 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
         "factor on the nominal e_abr when given as scale",
     ),
     (
+        "refinement_round",
+        "",
+        "refinement round that added the job (0: the grid)",
+    ),
+    (
         "status",
         "",
         "\"ok\" (bounded response), \"unstable\" (runaway found, job stopped) or \"failed\"",
@@ -353,6 +358,9 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
         cols.push(a);
         cols.push(s);
     }
+    cols.push(Arc::new(UInt32Array::from_iter_values(
+        rows.iter().map(|(_, r)| r.refinement_round),
+    )));
     let mut status = StringBuilder::new();
     let mut reason = StringBuilder::new();
     for (_, r) in &rows {
@@ -456,7 +464,13 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
         .map(|(&(name, unit, desc), col)| {
             let nullable = !matches!(
                 name,
-                "job_index" | "job_id" | "speed_rad_s" | "friction" | "status" | "wall_time_s"
+                "job_index"
+                    | "job_id"
+                    | "speed_rad_s"
+                    | "friction"
+                    | "refinement_round"
+                    | "status"
+                    | "wall_time_s"
             );
             let mut md = HashMap::new();
             if !unit.is_empty() {
@@ -547,6 +561,11 @@ fn records_of_batch(b: &RecordBatch) -> Result<Vec<(usize, JobRecord)>> {
     let yield_stress = pair("yield_stress", "pa")?;
     let thickness = pair("thickness", "m")?;
     let status = column::<StringArray>(b, "status")?;
+    // Absent from tables written before refinement existed.
+    let round = b
+        .column_by_name("refinement_round")
+        .map(|_| column::<UInt32Array>(b, "refinement_round"))
+        .transpose()?;
     let reason = column::<StringArray>(b, "reason")?;
     let maxima: Vec<&Float64Array> = [
         "max_blade_le_radial_m",
@@ -632,6 +651,7 @@ fn records_of_batch(b: &RecordBatch) -> Result<Vec<(usize, JobRecord)>> {
                 status: state,
                 result,
                 wall_time_s: wall.value(i),
+                refinement_round: round.map_or(0, |r| r.value(i)),
             },
         ));
     }
@@ -805,6 +825,23 @@ mod tests {
                 df_hz: 83.3,
                 amplitude_m: vec![1e-7, 2e-6, 3e-8],
             }),
+            drive_work_j: Some(2.5e4),
+            runaway: None,
+        };
+        let unstable = JobResult {
+            runaway: Some(Runaway {
+                onset_time_s: 4.1e-3,
+                detected_time_s: 6.3e-3,
+                growth_rate_per_s: 612.0,
+                growth_fit_r2: 0.93,
+                energy_growth: 12.5,
+                drive_work_j: 3.1e4,
+                nodal_diameter: Some(5),
+                frequency_hz: Some(3841.5),
+                forward: Some(true),
+                rotating_frame_frequency_hz: Some(10.2),
+            }),
+            ..full.clone()
         };
         let mut coated = params(2500.0);
         coated.clearance_m = Some(5e-4);
@@ -821,7 +858,10 @@ mod tests {
             status,
             result,
             wall_time_s: 1.25,
+            refinement_round: 0,
         };
+        let mut refined = rec("d", params(4000.0), JobStatus::Unstable, Some(unstable));
+        refined.refinement_round = 2;
         vec![
             (0, rec("a", params(2000.0), JobStatus::Ok, Some(full))),
             (
@@ -839,6 +879,7 @@ mod tests {
                     None,
                 ),
             ),
+            (3, refined),
         ]
     }
 
@@ -909,6 +950,7 @@ mod tests {
             status: JobStatus::Ok,
             result: Some(result.clone()),
             wall_time_s: 1.0,
+            refinement_round: 0,
         };
         let batch = results_batch(&[(0, record)]).unwrap();
         for &name in PEAK_QUANTITIES {
