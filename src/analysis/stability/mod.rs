@@ -116,14 +116,14 @@ pub struct StabilityOptions {
 }
 
 impl Default for StabilityOptions {
-    /// μ = 0, bilateral contact on every row, modes above 40 kHz condensed (`docs/stability.md`
+    /// μ = 0, bilateral contact on every row, modes above 20 kHz condensed (`docs/stability.md`
     /// for the convergence), threshold 0.1 s⁻¹, the persistent-rub verdict, 48 scan points.
     fn default() -> Self {
         Self {
             friction: 0.0,
             contact: ContactModel::Bilateral,
             held_rows: None,
-            mode_cutoff_hz: Some(40e3),
+            mode_cutoff_hz: Some(20e3),
             growth_threshold_per_s: 0.1,
             verdict: Verdict::PersistentRub,
             onset_scan_points: 48,
@@ -368,8 +368,9 @@ impl<'a> Predictor<'a> {
             let sol = self.class_solution(omega, class)?;
             let self_conjugate = class == 0 || 2 * class == n_b;
             for w in sol.waves {
-                // A self-conjugate class holds each real wave twice (λ and λ̄).
-                if self_conjugate && w.lambda.im < 0.0 {
+                // A self-conjugate class holds each real wave twice (λ and λ̄), but a real λ
+                // (a divergence in the rotating frame) once, with a round-off sign of Im λ.
+                if self_conjugate && w.lambda.im < -1e-8 * w.lambda.norm() {
                     continue;
                 }
                 waves.push(w.describe(omega, class.min(n_b - class)));
