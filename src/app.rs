@@ -561,7 +561,8 @@ pub struct StabilityArgs {
     pub output: PathBuf,
     /// Lowest speed (rad/s); default 0.8 × the grid's lowest.
     pub from: Option<f64>,
-    /// Highest speed (rad/s); default 1.2 × the grid's highest.
+    /// Highest speed (rad/s); default 1.2 × the grid's highest, at most the highest speed of
+    /// the impeller's modal grid.
     pub to: Option<f64>,
     /// Speeds of the scan, ≥ 2.
     pub count: usize,
@@ -583,7 +584,12 @@ pub fn stability(spec_path: &Path, args: &StabilityArgs) -> Result<String, AppEr
     let grid =
         |f: fn(f64, f64) -> f64, init| jobs.iter().map(|j| j.params.speed_rad_s).fold(init, f);
     let from = args.from.unwrap_or(0.8 * grid(f64::min, f64::INFINITY));
-    let to = args.to.unwrap_or(1.2 * grid(f64::max, 0.0));
+    // Not beyond the impeller's modal grid, the speeds its K(Ω) fit was made for.
+    let fitted = (sim.impeller().modal_data.first())
+        .and_then(|m| m.omega.last().copied())
+        .filter(|&w| w > 0.0)
+        .unwrap_or(f64::INFINITY);
+    let to = (args.to).unwrap_or((1.2 * grid(f64::max, 0.0)).min(fitted));
     if !(from.is_finite() && to.is_finite() && from >= 0.0 && to > from && args.count >= 2) {
         return Err(anyhow!(
             "speed range --from {from} --to {to} --count {} is invalid (0 ≤ from < to, count ≥ 2)",
@@ -664,6 +670,13 @@ fn stability_table(
         );
     }
     match onset {
+        Some(w) if w <= at.first().map_or(0.0, |a| a.omega_rad_s) => {
+            let _ = writeln!(
+                s,
+                "μ = {mu}: a wave grows from the lowest speed of the range, {w:.1} rad/s: the \
+                 onset lies below it (lower --from)"
+            );
+        }
         Some(w) => {
             let _ = writeln!(
                 s,

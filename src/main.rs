@@ -143,7 +143,8 @@ enum Command {
         /// Lowest speed (rad/s); default 0.8 × the grid's lowest.
         #[arg(long)]
         from: Option<f64>,
-        /// Highest speed (rad/s); default 1.2 × the grid's highest.
+        /// Highest speed (rad/s); default 1.2 × the grid's highest, at most the highest speed
+        /// of the impeller's modal grid.
         #[arg(long)]
         to: Option<f64>,
         /// Speeds of the scan.

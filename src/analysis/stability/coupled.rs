@@ -117,9 +117,9 @@ fn split_modes(
             } else {
                 // Quasi-static in the rotating frame: η = −Σ conj(F) N / κ at λ = 0.
                 let kappa = c64::new(w * w - delta * delta, -c * delta);
-                for j in 0..m {
-                    for l in 0..m {
-                        r.residual[(j, l)] += gap[j] * force[l].conj() / kappa;
+                for (j, g) in gap.iter().enumerate() {
+                    for (l, f) in force.iter().enumerate() {
+                        r.residual[(j, l)] += g * f.conj() / kappa;
                     }
                 }
                 r.condensed += 1;
@@ -252,7 +252,7 @@ fn null_space(a: MatRef<'_, c64>) -> Result<Mat<c64>, String> {
     let qr = a.adjoint().qr();
     let r = qr.R();
     let scale = (0..m).map(|i| r[(i, i)].norm()).fold(0.0, f64::max);
-    if (0..m).any(|i| !(r[(i, i)].norm() > 1e-12 * scale)) {
+    if scale == 0.0 || (0..m).any(|i| r[(i, i)].norm() <= 1e-12 * scale) {
         return Err("the held rows are linearly dependent".into());
     }
     let q = qr.compute_Q();
