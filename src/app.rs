@@ -571,6 +571,157 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
     Ok(s)
 }
 
+/// Arguments of [`stability`].
+#[derive(Debug, Clone)]
+pub struct StabilityArgs {
+    /// Diagram file (.png or .svg); one per friction coefficient when the grid has several
+    /// (`<stem>-mu<μ>.<ext>`).
+    pub output: PathBuf,
+    /// Lowest speed (rad/s); default 0.8 × the grid's lowest.
+    pub from: Option<f64>,
+    /// Highest speed (rad/s); default 1.2 × the grid's highest, at most the highest speed of
+    /// the impeller's modal grid.
+    pub to: Option<f64>,
+    /// Speeds of the scan, ≥ 2.
+    pub count: usize,
+}
+
+/// `rubscan stability`: the linear stability of a persistent rub ([`crate::analysis::stability`])
+/// of a sweep's models over a speed range, for each friction coefficient of its grid: per speed
+/// the most unstable wave, the predicted onset beside the casing's critical wave speed and the
+/// interaction criterion's Ω*, and a diagram of σ_max(Ω) per nodal diameter.
+pub fn stability(spec_path: &Path, args: &StabilityArgs) -> Result<String, AppError> {
+    use crate::analysis::stability::{Predictor, StabilityOptions};
+    use crate::sweep::stability_plot::{StabilityPlotData, stability_diagram};
+    use rayon::prelude::*;
+    let resolved = load_resolved(spec_path)?;
+    let jobs = plan(&resolved.spec)?.jobs;
+    let sim = ModelSimulator::from_resolved(resolved)?;
+    let casing = (sim.casing_rom())
+        .ok_or_else(|| anyhow!("the stability prediction needs a flexible casing model"))?;
+    let grid =
+        |f: fn(f64, f64) -> f64, init| jobs.iter().map(|j| j.params.speed_rad_s).fold(init, f);
+    let from = args.from.unwrap_or(0.8 * grid(f64::min, f64::INFINITY));
+    // Not beyond the impeller's modal grid, the speeds its K(Ω) fit was made for.
+    let fitted = (sim.impeller().modal_data.first())
+        .and_then(|m| m.omega.last().copied())
+        .filter(|&w| w > 0.0)
+        .unwrap_or(f64::INFINITY);
+    let to = (args.to).unwrap_or((1.2 * grid(f64::max, 0.0)).min(fitted));
+    if !(from.is_finite() && to.is_finite() && from >= 0.0 && to > from && args.count >= 2) {
+        return Err(anyhow!(
+            "speed range --from {from} --to {to} --count {} is invalid (0 ≤ from < to, count ≥ 2)",
+            args.count
+        )
+        .into());
+    }
+    let omegas: Vec<f64> = (0..args.count)
+        .map(|i| from + (to - from) * i as f64 / (args.count - 1) as f64)
+        .collect();
+    let mut frictions: Vec<f64> = jobs.iter().map(|j| j.params.friction).collect();
+    frictions.sort_by(f64::total_cmp);
+    frictions.dedup();
+    let wave_speed = sim.casing_wave_speed()?;
+    let interaction: Vec<(f64, u32)> = (sim.critical_speeds().iter())
+        .filter(|c| (from..=to).contains(&c.speed_rad_s))
+        .map(|c| (c.speed_rad_s, c.nodal_diameter))
+        .collect();
+    let mut s = String::new();
+    if let Some((w, k)) = wave_speed {
+        let _ = writeln!(
+            s,
+            "casing critical wave speed {w:.1} rad/s (nodal diameter {k})"
+        );
+    }
+    for (w, n) in &interaction {
+        let _ = writeln!(s, "interaction criterion Ω*_{n} = {w:.1} rad/s");
+    }
+    for &mu in &frictions {
+        let p = Predictor::new(sim.impeller(), casing, &StabilityOptions::with_friction(mu))
+            .map_err(anyhow::Error::from)?;
+        let at: Vec<_> = (omegas
+            .par_iter()
+            .map(|&w| p.at(w))
+            .collect::<Result<_, _>>())
+        .map_err(anyhow::Error::from)?;
+        let onset = (p.onset_speed(from, to, 1e-4 * to)).map_err(anyhow::Error::from)?;
+        stability_table(&mut s, mu, &at, onset);
+        let path = diagram_path(&args.output, mu, frictions.len());
+        let data = StabilityPlotData {
+            friction: mu,
+            speeds: &at,
+            onset_rad_s: onset,
+            critical_wave_speed: wave_speed,
+            interaction_speeds: interaction.clone(),
+        };
+        stability_diagram(&data, &path).map_err(anyhow::Error::from)?;
+        let _ = writeln!(s, "stability diagram -> {}", path.display());
+    }
+    Ok(s)
+}
+
+/// The table of [`stability`] for one friction coefficient.
+fn stability_table(
+    s: &mut String,
+    mu: f64,
+    at: &[crate::analysis::stability::StabilityAtSpeed],
+    onset: Option<f64>,
+) {
+    let _ = writeln!(
+        s,
+        "μ = {mu}\n{:>10}  {:>8}  {:>8}  {:>4}  {:>4}  {:>11}  {:>10}  {:>8}",
+        "Ω [rad/s]", "Ω [rpm]", "verdict", "ND", "ND_b", "σ [1/s]", "f [Hz]", "wave"
+    );
+    for a in at {
+        let Some(w) = a.most_unstable() else { continue };
+        let _ = writeln!(
+            s,
+            "{:>10.1}  {:>8.0}  {:>8}  {:>4}  {:>4}  {:>11.2}  {:>10.1}  {:>8}",
+            a.omega_rad_s,
+            a.omega_rad_s * 30.0 / PI,
+            if a.is_stable() { "stable" } else { "GROWS" },
+            w.nodal_diameter,
+            w.impeller_nodal_diameter,
+            w.growth_rate_per_s,
+            w.frequency_hz,
+            if w.backward { "backward" } else { "forward" },
+        );
+    }
+    match onset {
+        Some(w) if w <= at.first().map_or(0.0, |a| a.omega_rad_s) => {
+            let _ = writeln!(
+                s,
+                "μ = {mu}: a wave grows from the lowest speed of the range, {w:.1} rad/s: the \
+                 onset lies below it (lower --from)"
+            );
+        }
+        Some(w) => {
+            let _ = writeln!(
+                s,
+                "μ = {mu}: predicted onset {w:.1} rad/s ({:.0} rpm)",
+                w * 30.0 / PI
+            );
+        }
+        None => {
+            let _ = writeln!(s, "μ = {mu}: no growing wave in the range");
+        }
+    }
+}
+
+/// `output`, or `<stem>-mu<μ>.<ext>` when the grid has several friction coefficients.
+fn diagram_path(output: &Path, mu: f64, n_frictions: usize) -> PathBuf {
+    if n_frictions <= 1 {
+        return output.to_path_buf();
+    }
+    let stem = output
+        .file_stem()
+        .map_or("stability".into(), |s| s.to_string_lossy());
+    let ext = output
+        .extension()
+        .map_or("png".into(), |e| e.to_string_lossy());
+    output.with_file_name(format!("{stem}-mu{mu}.{ext}"))
+}
+
 /// `rubscan report`: the paper's figures and an `index.html` from a results directory (see
 /// [`crate::sweep::report`]); returns a summary for the terminal. A missing or malformed
 /// manifest or table is an error naming the file (exit status 1), before anything is written.

@@ -132,6 +132,25 @@ enum Command {
         #[arg(short, long, default_value = "results/campbell.png")]
         output: PathBuf,
     },
+    /// Linear stability of a persistent rub per speed (growth rate of every coupled wave, the
+    /// predicted onset), beside the casing's critical wave speed and the criterion's Ω*.
+    Stability {
+        /// Sweep spec (JSON) naming the models; its friction grid gives μ.
+        spec: PathBuf,
+        /// Diagram file (.png or .svg).
+        #[arg(short, long, default_value = "results/stability.png")]
+        output: PathBuf,
+        /// Lowest speed (rad/s); default 0.8 × the grid's lowest.
+        #[arg(long)]
+        from: Option<f64>,
+        /// Highest speed (rad/s); default 1.2 × the grid's highest, at most the highest speed
+        /// of the impeller's modal grid.
+        #[arg(long)]
+        to: Option<f64>,
+        /// Speeds of the scan.
+        #[arg(long, default_value_t = 200)]
+        count: usize,
+    },
 }
 
 #[derive(Subcommand)]
@@ -272,5 +291,21 @@ fn dispatch(command: Command) -> Result<(), AppError> {
         Command::Campbell { spec, output } => {
             app::campbell(&spec, &output).map(|text| print!("{text}"))
         }
+        Command::Stability {
+            spec,
+            output,
+            from,
+            to,
+            count,
+        } => app::stability(
+            &spec,
+            &app::StabilityArgs {
+                output,
+                from,
+                to,
+                count,
+            },
+        )
+        .map(|text| print!("{text}")),
     }
 }

@@ -1,6 +1,7 @@
 //! Analysis stage: spectra of probe signals, a probe's steady response over its last
-//! revolutions, and the linear interaction criterion.
+//! revolutions, the linear interaction criterion, and the linear stability of a persistent rub.
 
 pub mod interaction;
 pub mod revolutions;
 pub mod spectra;
+pub mod stability;

@@ -24,6 +24,7 @@ pub mod schema;
 pub mod simulator;
 pub mod slurm;
 pub mod spec;
+pub mod stability_plot;
 pub mod status;
 #[cfg(any(test, feature = "fixtures"))]
 pub mod synthetic;
