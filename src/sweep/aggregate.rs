@@ -111,6 +111,7 @@ impl JobAggregator {
             critical_speed: None,
             spectrum,
             drive_work_j: Some(self.drive_work),
+            predicted: None,
             runaway: summary.runaway,
         })
     }

@@ -166,6 +166,20 @@ pub struct CriticalSpeed {
     pub compatibility: f64,
 }
 
+/// The linear stability prediction at a job's speed and friction
+/// ([`crate::analysis::stability`]): the most unstable coupled wave of a persistent rub.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PredictedStability {
+    /// Whether no counted wave grows (the prediction says the rub settles).
+    pub stable: bool,
+    /// Growth rate Re λ (1/s) of the most unstable counted wave (≤ 0 when stable).
+    pub growth_rate_per_s: f64,
+    /// Its casing nodal diameter.
+    pub nodal_diameter: u32,
+    /// Its fixed-frame frequency (Hz).
+    pub frequency_hz: f64,
+}
+
 /// Amplitude spectrum of the blade-tip radial displacement on a uniform frequency grid
 /// f_k = k · df_hz, k = 0, 1, …
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -202,6 +216,9 @@ pub struct JobResult {
     /// the stop) of the run (`None` in a record written before it was kept).
     #[serde(default)]
     pub drive_work_j: Option<f64>,
+    /// The linear stability prediction at the job's speed (flexible casings only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted: Option<PredictedStability>,
     /// The runaway that stopped the job early: its outcome is then `unstable`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub runaway: Option<Runaway>,
@@ -271,6 +288,12 @@ impl JobResult {
             )?;
         }
         bad("drive_work_j", &mut self.drive_work_j.into_iter())?;
+        if let Some(p) = &self.predicted {
+            bad(
+                "predicted",
+                &mut [p.growth_rate_per_s, p.frequency_hz].into_iter(),
+            )?;
+        }
         if let Some(s) = &self.spectrum {
             bad(
                 "spectrum",

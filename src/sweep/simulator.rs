@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 
 use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
+use crate::analysis::stability::{self, StabilityOptions};
 use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::recorder::{RecordError, Recorder, Sample};
 use crate::dynamics::scenario::CoatingCase;
@@ -24,7 +25,7 @@ use crate::sweep::planner::{CoatingParams, CoatingValue, Job, slice_label};
 use crate::sweep::schema::SpecError;
 use crate::sweep::spec::{Scenario, SweepSpec};
 use crate::sweep::validate::{self, ResolvedCasing, ResolvedSweep};
-use crate::sweep::{CriticalSpeed, JobResult, JobSimulator, JobSteps};
+use crate::sweep::{CriticalSpeed, JobResult, JobSimulator, JobSteps, PredictedStability};
 
 /// Applies one grid coating value to a nominal one.
 fn resolve(nominal: f64, value: Option<CoatingValue>) -> f64 {
@@ -527,7 +528,35 @@ impl JobSimulator for ModelSimulator {
         .map_err(failure_reason)?;
         let mut result = rows.finish(&summary)?;
         result.critical_speed = nearest(&self.criticals, case.omega);
+        result.predicted = self.predicted_stability(case.omega, case.friction)?;
         Ok(result)
+    }
+}
+
+impl ModelSimulator {
+    /// The linear stability prediction of a persistent rub at `omega` (rad/s) with friction
+    /// `mu` (flexible casings only): the most unstable counted wave.
+    fn predicted_stability(
+        &self,
+        omega: f64,
+        mu: f64,
+    ) -> Result<Option<PredictedStability>, String> {
+        let ResolvedCasing::Flexible(casing) = &self.casing else {
+            return Ok(None);
+        };
+        let at = stability::predict(
+            &self.impeller,
+            casing,
+            omega,
+            &StabilityOptions::with_friction(mu),
+        )
+        .map_err(|e| format!("stability prediction: {e}"))?;
+        Ok(at.most_unstable().map(|w| PredictedStability {
+            stable: at.is_stable(),
+            growth_rate_per_s: w.growth_rate_per_s,
+            nodal_diameter: w.nodal_diameter as u32,
+            frequency_hz: w.frequency_hz,
+        }))
     }
 }
 

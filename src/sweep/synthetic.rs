@@ -159,6 +159,7 @@ impl SyntheticSimulator {
                 amplitude_m,
             }),
             drive_work_j: None,
+            predicted: None,
             runaway: None,
         }
     }

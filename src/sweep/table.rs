@@ -169,6 +169,26 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
         "max abradable coating force per blade",
     ),
     (
+        "predicted_stable",
+        "",
+        "linear stability prediction at the job's Ω and μ: whether a persistent rub settles",
+    ),
+    (
+        "predicted_growth_rate_per_s",
+        "1/s",
+        "its most unstable coupled wave's growth rate Re λ (null without a flexible casing)",
+    ),
+    (
+        "predicted_nodal_diameter",
+        "",
+        "that wave's casing nodal diameter",
+    ),
+    (
+        "predicted_frequency_hz",
+        "Hz",
+        "that wave's fixed-frame frequency",
+    ),
+    (
         "wear_profile_m",
         "m",
         "final wear depth [station leading→trailing edge][angle 2πk/n]",
@@ -295,6 +315,50 @@ fn runaway_columns(rows: &[&(usize, JobRecord)], cols: &mut Vec<ArrayRef>) {
     )));
 }
 
+/// Appends the prediction columns of `rows` to `cols`.
+fn predicted_columns(rows: &[&(usize, JobRecord)], cols: &mut Vec<ArrayRef>) {
+    let predicted = |r: &JobRecord| r.result.as_ref().and_then(|x| x.predicted);
+    cols.push(Arc::new(BooleanArray::from_iter(
+        rows.iter().map(|(_, r)| predicted(r).map(|p| p.stable)),
+    )));
+    cols.push(f64_col(
+        rows.iter()
+            .map(|(_, r)| predicted(r).map(|p| p.growth_rate_per_s)),
+    ));
+    cols.push(Arc::new(UInt32Array::from_iter(
+        rows.iter()
+            .map(|(_, r)| predicted(r).map(|p| p.nodal_diameter)),
+    )));
+    cols.push(f64_col(
+        rows.iter()
+            .map(|(_, r)| predicted(r).map(|p| p.frequency_hz)),
+    ));
+}
+
+/// The prediction of row `i` read back from its columns (`None` when null, or the table
+/// predates them).
+fn predicted_of_row(b: &RecordBatch, i: usize) -> Result<Option<crate::sweep::PredictedStability>> {
+    if b.column_by_name("predicted_stable").is_none() {
+        return Ok(None);
+    }
+    let stable = column::<BooleanArray>(b, "predicted_stable")?;
+    let rate = column::<Float64Array>(b, "predicted_growth_rate_per_s")?;
+    let nd = column::<UInt32Array>(b, "predicted_nodal_diameter")?;
+    let f = column::<Float64Array>(b, "predicted_frequency_hz")?;
+    if !stable.is_valid(i) {
+        return Ok(None);
+    }
+    let need = |a: &Float64Array, name: &str| {
+        opt_f64(a, i).with_context(|| format!("row {i}: {name} is null for a prediction"))
+    };
+    Ok(Some(crate::sweep::PredictedStability {
+        stable: stable.value(i),
+        growth_rate_per_s: need(rate, "predicted_growth_rate_per_s")?,
+        nodal_diameter: nd.value(i),
+        frequency_hz: need(f, "predicted_frequency_hz")?,
+    }))
+}
+
 /// The runaway of row `i` read back from its columns (`None` when the row has none, or the
 /// table predates them).
 fn runaway_of_row(b: &RecordBatch, i: usize) -> Result<Option<Runaway>> {
@@ -389,6 +453,7 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
     cols.push(res(|r| Some(r.maxima.contact_normal_force_n)));
     cols.push(res(|r| Some(r.maxima.coating_force_n)));
 
+    predicted_columns(&rows, &mut cols);
     let mut wear = ListBuilder::new(ListBuilder::new(Float64Builder::new()));
     let mut peaks = ListBuilder::new(StructBuilder::new(
         peak_fields(),
@@ -747,6 +812,7 @@ fn result_of_row(b: &RecordBatch, i: usize, c: &RowColumns<'_>) -> Result<crate:
             .map(|_| column::<Float64Array>(b, "drive_work_j"))
             .transpose()?
             .and_then(|a| opt_f64(a, i)),
+        predicted: predicted_of_row(b, i)?,
         runaway: runaway_of_row(b, i)?,
     })
 }
@@ -826,6 +892,12 @@ mod tests {
                 amplitude_m: vec![1e-7, 2e-6, 3e-8],
             }),
             drive_work_j: Some(2.5e4),
+            predicted: Some(crate::sweep::PredictedStability {
+                stable: false,
+                growth_rate_per_s: 2583.0,
+                nodal_diameter: 5,
+                frequency_hz: 3553.0,
+            }),
             runaway: None,
         };
         let unstable = JobResult {
