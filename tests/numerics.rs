@@ -53,6 +53,7 @@ fn base() -> Numerics {
         decimation: 1,
         boundary: Boundary::Mass,
         mode_cutoff_hz: None,
+        stop_on_runaway: true,
     }
 }
 

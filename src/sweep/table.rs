@@ -805,6 +805,7 @@ mod tests {
                 df_hz: 83.3,
                 amplitude_m: vec![1e-7, 2e-6, 3e-8],
             }),
+            ..Default::default()
         };
         let mut coated = params(2500.0);
         coated.clearance_m = Some(5e-4);

@@ -116,6 +116,7 @@ fn lobe_case(h: f64, mu: f64, kernel: KernelChoice, eps: f64) -> Case {
             decimation: 5,
             boundary: Default::default(),
             mode_cutoff_hz: None,
+            stop_on_runaway: true,
         },
         coating: None,
     }
