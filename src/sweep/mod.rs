@@ -19,6 +19,7 @@ pub mod probe_report;
 pub mod refine;
 pub mod report;
 pub mod runner;
+pub mod scan_figure;
 pub mod schema;
 pub mod simulator;
 pub mod slurm;
