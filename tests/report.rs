@@ -1,8 +1,10 @@
 //! `rubscan report` end to end: the report of a small sweep, looked at in a real browser (a
 //! headless Chromium screenshot of `index.html` must show every figure: each image's bordered
 //! box found in the screenshot and filled with plot colours; the same check fails on the page
-//! with its images broken); bad results directories refused naming the file; the Campbell
-//! diagram's and interaction map's labels checked box by box.
+//! with its images broken), also when the sweep stored no time series (the main job's way:
+//! no figure without data); a synthetic sweep with ok, unstable and failed jobs (the response
+//! against Ω with its outcomes); bad results directories refused naming the file; the
+//! Campbell diagram's and interaction map's labels checked box by box.
 //!
 //! Needs `chromium` (Debian `chromium`, installed by `.ci/setup`) on the PATH for the browser
 //! test; without it the test fails when the environment variable `CI` is set and prints a
@@ -12,12 +14,14 @@ use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use rubscan::sweep::CriticalSpeed;
 use rubscan::sweep::labels::{LabelBox, disjoint};
 use rubscan::sweep::plots::{
     CampbellData, CasingMode, ImpellerBranch, InteractionMapData, PlotLabels, SpectrumColumn,
     campbell_diagram, interaction_map,
 };
+use rubscan::sweep::report::{ReportOptions, write_report};
+use rubscan::sweep::synthetic::SyntheticSimulator;
+use rubscan::sweep::{CriticalSpeed, RunOptions, parse_spec, run_sweep};
 
 const SMALL: &str = "tests/data/small_sweep.json";
 
@@ -57,6 +61,14 @@ fn small_sweep(dir: &Path) {
         .arg(dir)
         .output()
         .unwrap());
+}
+
+/// The figures of a report page, in page order.
+fn page_figures(html: &str) -> Vec<String> {
+    html.split("<img src=\"")
+        .skip(1)
+        .map(|s| s[..s.find('"').unwrap()].to_string())
+        .collect()
 }
 
 /// Skips (prints why) unless `CI` is set, in which case a missing prerequisite fails.
@@ -205,41 +217,10 @@ fn loaded_images(img: &Image) -> usize {
         .count()
 }
 
-#[test]
-fn report_of_a_small_sweep_shows_every_figure_in_a_browser() {
-    let dir = tmp("browser");
-    small_sweep(&dir);
-    let text = ok(rubscan().arg("report").arg(&dir).output().unwrap());
-    let out = dir.join("report");
-    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
-    let figures: Vec<&str> = html
-        .split("<img src=\"")
-        .skip(1)
-        .map(|s| &s[..s.find('"').unwrap()])
-        .collect();
-    // Time histories, ND strain energy and one interaction map per friction value (the small
-    // models have no critical speed, so no Campbell diagram: said on the page).
-    assert_eq!(
-        figures,
-        [
-            "time_histories.png",
-            "nd_strain_energy.png",
-            "interaction_map_0.png",
-            "interaction_map_1.png"
-        ],
-        "{text}"
-    );
-    for f in &figures {
-        assert!(out.join(f).is_file(), "{f}");
-        assert!(text.contains(f), "{text}");
-    }
-    assert!(html.contains("no Campbell diagram"));
-    for unit in ["(mm)", "(N)", "(µm)", "(J", "(rad/s)", "(Hz"] {
-        assert!(html.contains(unit), "captions state {unit}");
-    }
-    // Every job's series was stored: no note about missing ones.
-    assert!(!html.contains("no time series"), "{html}");
-
+/// The page `out/index.html` in a headless browser: every one of its `figures` shows in its
+/// own box with plot colours (a figure without data, all axes and text, fails); with
+/// `broken`, the same page with its images broken is checked to fail the same test.
+fn check_in_browser(dir: &Path, out: &Path, figures: &[String], broken: bool) {
     let Some(chromium) = find_chromium() else {
         skip_or_fail("chromium (Debian chromium) is not on the PATH");
         return;
@@ -252,12 +233,14 @@ fn report_of_a_small_sweep_shows_every_figure_in_a_browser() {
         figures.len(),
         "every figure shows, with plot colours, in its own box"
     );
-
+    if !broken {
+        return;
+    }
     // The same page with its images broken: the check fails.
     let broken = dir.join("broken");
     std::fs::create_dir_all(&broken).unwrap();
     std::fs::copy(out.join("index.html"), broken.join("index.html")).unwrap();
-    for f in &figures {
+    for f in figures {
         std::fs::write(broken.join(f), b"not a PNG").unwrap();
     }
     let shot = screenshot(
@@ -271,7 +254,136 @@ fn report_of_a_small_sweep_shows_every_figure_in_a_browser() {
         0,
         "broken images are not taken as loaded"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn report_of_a_small_sweep_shows_every_figure_in_a_browser() {
+    let dir = tmp("browser");
+    small_sweep(&dir);
+    let text = ok(rubscan().arg("report").arg(&dir).output().unwrap());
+    let out = dir.join("report");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let figures = page_figures(&html);
+    // The response against Ω, time histories, ND strain energy and one interaction map per
+    // friction value (the small models have no critical speed, so no Campbell diagram: said
+    // on the page).
+    assert_eq!(
+        figures,
+        [
+            "response_vs_speed.png",
+            "time_histories.png",
+            "nd_strain_energy.png",
+            "interaction_map_0.png",
+            "interaction_map_1.png"
+        ],
+        "{text}"
+    );
+    for f in &figures {
+        assert!(out.join(f).is_file(), "{f}");
+        assert!(text.contains(f.as_str()), "{text}");
+    }
+    assert!(html.contains("no Campbell diagram"));
+    for unit in ["(mm)", "(N)", "(µm)", "(J", "(rad/s)", "(Hz"] {
+        assert!(html.contains(unit), "captions state {unit}");
+    }
+    assert!(html.contains("6 jobs: 6 ok, 0 unstable"), "{html}");
+    // Every job's series was stored: no note about missing ones.
+    assert!(!html.contains("no time series"), "{html}");
+    check_in_browser(&dir, &out, &figures, true);
+    cleanup(&dir);
+}
+
+/// The main job's way (`rubscan run` without `--timeseries`, as the quickstart): no figure
+/// of the page is without data. With no series and no coating the time histories are left
+/// out, with one note saying how to get them, instead of empty panels.
+#[test]
+fn report_without_series_has_no_figure_without_data() {
+    let dir = tmp("noseries");
+    ok(rubscan()
+        .args(["run", SMALL, "--threads", "1", "-o"])
+        .arg(&dir)
+        .output()
+        .unwrap());
+    ok(rubscan().arg("report").arg(&dir).output().unwrap());
+    let out = dir.join("report");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let figures = page_figures(&html);
+    assert_eq!(
+        figures,
+        [
+            "response_vs_speed.png",
+            "nd_strain_energy.png",
+            "interaction_map_0.png",
+            "interaction_map_1.png"
+        ]
+    );
+    assert!(!out.join("time_histories.png").exists());
+    let notes: Vec<&str> = html.lines().filter(|l| l.contains("time series")).collect();
+    assert_eq!(notes.len(), 1, "one line: {notes:?}");
+    assert!(
+        notes[0].contains("--timeseries") && notes[0].contains("rubscan simulate"),
+        "{}",
+        notes[0]
+    );
+    check_in_browser(&dir, &out, &figures, false);
+    cleanup(&dir);
+}
+
+/// A synthetic scan of the small models with runaways above 2200 rad/s and failures above
+/// 2400 rad/s: the response against Ω counts the outcomes, gives the unstable jobs' growth
+/// rates and onsets, and shades them; the page shows every figure.
+#[test]
+fn report_of_a_scan_with_unstable_and_failed_jobs() {
+    let mut spec: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(SMALL)).unwrap(),
+    )
+    .unwrap();
+    spec["name"] = "unstable_scan".into();
+    spec["grid"]["speed"] = serde_json::json!({"unit": "rad_s", "range": {"start": 1500.0, "stop": 2500.0, "count": 11}});
+    let spec = parse_spec(&spec.to_string()).unwrap();
+    let sim = SyntheticSimulator {
+        critical_speed_rad_s: 2000.0,
+        unstable_above_speed_rad_s: Some(2200.0),
+        fail_above_speed_rad_s: Some(2400.0),
+        ..Default::default()
+    };
+    let dir = tmp("unstable");
+    run_sweep(&spec, &RunOptions::new(&dir), &sim).unwrap();
+    let report = write_report(&dir, &ReportOptions::default()).unwrap();
+    let out = dir.join("report");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let figures = page_figures(&html);
+    // No series stored: the time-history figure keeps the synthetic wear profiles alone.
+    assert_eq!(
+        figures,
+        [
+            "response_vs_speed.png",
+            "time_histories.png",
+            "nd_strain_energy.png",
+            "interaction_map_0.png",
+            "interaction_map_1.png"
+        ]
+    );
+    assert!(html.contains("Final wear profiles (Fig. 17)"), "{html}");
+    // Two speed lines of 11 speeds: 2300 and 2400 rad/s unstable, 2500 rad/s failed.
+    assert!(html.contains("22 jobs: 16 ok, 4 unstable"), "{html}");
+    for needle in [
+        "16 ok (filled circles), 4 unstable",
+        "2 failed (crosses on the axis floor)",
+        "maxima run only to the stop",
+        // σ = 10⁴ (Ω/2200 − 1): 454.545 /s at 2300 rad/s, 909.091 /s at 2400 rad/s.
+        "growth rate σ 454.545–909.091 1/s",
+        "onset at t = 0.0040 s",
+        "Shaded red",
+        "no linear stability prediction",
+    ] {
+        assert!(html.contains(needle), "{needle} not on the page: {html}");
+    }
+    let labels = report.scan_labels.expect("the response against Ω is drawn");
+    let boxes: Vec<LabelBox> = labels.placed.iter().map(|l| l.bbox).collect();
+    assert!(disjoint(&boxes), "{labels:?}");
+    check_in_browser(&dir, &out, &figures, false);
+    cleanup(&dir);
 }
 
 #[test]

@@ -1,5 +1,7 @@
 //! The report's per-job figures (paper Figs. 16–18): time histories of selected jobs
 //! overlaid with their wear profiles, and the strain energy per nodal diameter as bars.
+//! A figure only draws panels that have data ([`history_panels`]): a sweep without stored
+//! series gives no empty time-history panels.
 //! Like [`crate::sweep::plots`], every function only writes its `path` (PNG or SVG by
 //! extension), atomically. Axes in SI-derived units stated on each axis.
 
@@ -8,7 +10,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::sweep::plots::{PlotError, render, tab10, text_size};
+use crate::sweep::plots::{PlotError, render, tab10, text_size, tick_decimals, tick_label};
 
 /// The time series of one job drawn in [`time_histories`].
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -112,11 +114,14 @@ where
         with.iter()
             .flat_map(|(_, j)| get(j).iter().map(|v| v * unit_scale)),
     );
-    // Enough decimals to tell five ticks apart.
-    let prec = (-(t_max / 5.0).log10()).ceil().clamp(0.0, 9.0) as usize;
+    // Enough decimals to tell five ticks apart, trailing zeros trimmed.
+    let prec = tick_decimals(t_max);
+    let y_prec = tick_decimals(y1 - y0);
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 15))
         .margin(8)
+        // Room for the last time tick's label, centred on the right edge.
+        .margin_right(20)
         .x_label_area_size(36)
         .y_label_area_size(70)
         .build_cartesian_2d(0.0..t_max, y0..y1)?;
@@ -128,15 +133,11 @@ where
         .axis_desc_style(("sans-serif", 13))
         .x_desc("time t (s)")
         .y_desc(y_desc)
-        .x_label_formatter(&|v| format!("{v:.prec$}"))
+        // Few enough ticks for a third of the figure's width.
+        .x_labels(6)
+        .x_label_formatter(&|v| tick_label(*v, prec))
+        .y_label_formatter(&|v| tick_label(*v, y_prec))
         .draw()?;
-    if with.is_empty() {
-        chart.draw_series(std::iter::once(Text::new(
-            "no time series stored (run with --timeseries)",
-            (0.05 * t_max, 0.5 * (y0 + y1)),
-            ("sans-serif", 14).into_font(),
-        )))?;
-    }
     let width = area.dim_in_pixel().0 as usize;
     for (i, j) in with {
         let y: Vec<f64> = get(j).iter().map(|v| v * unit_scale).collect();
@@ -154,6 +155,7 @@ where
 fn wear_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     d: &TimeHistoryData,
+    title: &str,
 ) -> Result<(), Box<dyn std::error::Error>>
 where
     DB::ErrorType: 'static,
@@ -166,10 +168,7 @@ where
         * 1e6;
     let top = if top > 0.0 { 1.1 * top } else { 1.0 };
     let mut chart = ChartBuilder::on(area)
-        .caption(
-            "(d) final wear profile (deepest along the chord)",
-            ("sans-serif", 15),
-        )
+        .caption(title, ("sans-serif", 15))
         .margin(8)
         .x_label_area_size(36)
         .y_label_area_size(70)
@@ -183,13 +182,6 @@ where
         .x_desc("angle θ (deg)")
         .y_desc("wear depth (µm)")
         .draw()?;
-    if d.jobs.iter().all(|j| j.wear_m.is_empty()) {
-        chart.draw_series(std::iter::once(Text::new(
-            "no coating: no wear",
-            (20.0, 0.5 * top),
-            ("sans-serif", 14).into_font(),
-        )))?;
-    }
     for (i, j) in d.jobs.iter().enumerate() {
         let n = j.wear_m.len() as f64;
         // Closed profile: θ = 360° repeats θ = 0.
@@ -249,6 +241,79 @@ fn legend_height<'a>(labels: impl ExactSizeIterator<Item = &'a str>, width: u32)
     16 + 20 * legend_rows(n, widest, width)
 }
 
+/// A panel of the time-history figure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HistoryPanel {
+    /// Radial displacement of blade 0's trailing edge (mm) against time (s).
+    BladeTrailingEdge,
+    /// Radial displacement of the first casing probe (mm) against time (s).
+    CasingProbe,
+    /// Normal contact force on blade 0 (N) against time (s).
+    NormalForce,
+    /// Final wear depth (µm) against the angle (deg).
+    Wear,
+}
+
+impl HistoryPanel {
+    /// The panel's title (without its letter); `probe` names the casing probe.
+    pub fn title(self, probe: &str) -> String {
+        match self {
+            Self::BladeTrailingEdge => "radial displacement, blade 0 trailing edge".into(),
+            Self::CasingProbe => format!("radial displacement, {probe}"),
+            Self::NormalForce => "normal contact force, blade 0".into(),
+            Self::Wear => "final wear profile (deepest along the chord)".into(),
+        }
+    }
+
+    /// What the panel shows, with its units (for a caption).
+    pub fn description(self, probe: &str) -> String {
+        match self {
+            Self::BladeTrailingEdge => {
+                "radial displacement of blade 0's trailing edge (mm) against time t (s)".into()
+            }
+            Self::CasingProbe => format!("radial displacement at {probe} (mm) against time t (s)"),
+            Self::NormalForce => "normal contact force on blade 0 (N) against time t (s)".into(),
+            Self::Wear => "final wear depth of the coating (µm, deepest along the chord) against \
+                           the angle θ (deg)"
+                .into(),
+        }
+    }
+}
+
+/// The panels of `d` that have data, in figure order: each series panel when some job has
+/// that series stored, the wear panel when some job has a wear profile. Empty: nothing to
+/// draw (a sweep run without `--timeseries` and without a coating).
+pub fn history_panels(d: &TimeHistoryData) -> Vec<HistoryPanel> {
+    let stored = |get: fn(&JobHistory) -> &[f64]| {
+        d.jobs
+            .iter()
+            .any(|j| !j.time_s.is_empty() && !get(j).is_empty())
+    };
+    let mut out = Vec::new();
+    for (panel, get) in [
+        (
+            HistoryPanel::BladeTrailingEdge,
+            (|j| &j.blade_te_radial_m) as fn(&JobHistory) -> &[f64],
+        ),
+        (HistoryPanel::CasingProbe, |j| &j.casing_radial_m),
+        (HistoryPanel::NormalForce, |j| &j.normal_force_n),
+    ] {
+        if stored(get) {
+            out.push(panel);
+        }
+    }
+    if d.jobs.iter().any(|j| !j.wear_m.is_empty()) {
+        out.push(HistoryPanel::Wear);
+    }
+    out
+}
+
+/// Rows and columns of the panel grid for `n` panels: one row up to three, two rows of two
+/// for four.
+fn panel_grid(n: usize) -> (usize, usize) {
+    if n <= 3 { (1, n.max(1)) } else { (2, 2) }
+}
+
 fn draw_histories<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     d: &TimeHistoryData,
@@ -258,61 +323,83 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
-    let root = root.titled(
-        "Time histories of selected jobs (paper Figs. 16–17)",
-        ("sans-serif", 20),
-    )?;
-    let (h, _) = (root.dim_in_pixel().1, 0);
-    let (panels, legend) = root.split_vertically(h.saturating_sub(legend_h));
-    let cells = panels.split_evenly((2, 2));
-    history_panel(
-        &cells[0],
-        d,
-        "(a) radial displacement, blade 0 trailing edge",
-        "displacement (mm)",
-        1e3,
-        |j| &j.blade_te_radial_m,
-    )?;
-    history_panel(
-        &cells[1],
-        d,
-        &format!("(b) radial displacement, {}", d.casing_probe),
-        "displacement (mm)",
-        1e3,
-        |j| &j.casing_radial_m,
-    )?;
-    history_panel(
-        &cells[2],
-        d,
-        "(c) normal contact force, blade 0",
-        "force (N)",
-        1.0,
-        |j| &j.normal_force_n,
-    )?;
-    wear_panel(&cells[3], d)?;
+    let panels = history_panels(d);
+    let title = if panels == [HistoryPanel::Wear] {
+        "Final wear profiles of selected jobs (paper Fig. 17)"
+    } else {
+        "Time histories of selected jobs (paper Figs. 16–17)"
+    };
+    let root = root.titled(title, ("sans-serif", 20))?;
+    let h = root.dim_in_pixel().1;
+    let (grid, legend) = root.split_vertically(h.saturating_sub(legend_h));
+    let cells = grid.split_evenly(panel_grid(panels.len()));
+    for (k, (panel, cell)) in panels.iter().zip(&cells).enumerate() {
+        let title = match panels.len() {
+            1 => panel.title(&d.casing_probe),
+            _ => format!(
+                "({}) {}",
+                (b'a' + k as u8) as char,
+                panel.title(&d.casing_probe)
+            ),
+        };
+        match panel {
+            HistoryPanel::BladeTrailingEdge => {
+                history_panel(cell, d, &title, "displacement (mm)", 1e3, |j| {
+                    &j.blade_te_radial_m
+                })?
+            }
+            HistoryPanel::CasingProbe => {
+                history_panel(cell, d, &title, "displacement (mm)", 1e3, |j| {
+                    &j.casing_radial_m
+                })?
+            }
+            HistoryPanel::NormalForce => {
+                history_panel(cell, d, &title, "force (N)", 1.0, |j| &j.normal_force_n)?
+            }
+            HistoryPanel::Wear => wear_panel(cell, d, &title)?,
+        }
+    }
     let labels: Vec<String> = d.jobs.iter().map(|j| j.label.clone()).collect();
     legend_strip(&legend, &labels)?;
     root.present()?;
     Ok(())
 }
 
-/// Four panels in the style of the paper's Figs. 16–17, one colour per job: (a) blade 0
-/// trailing-edge radial displacement (mm), (b) casing probe radial displacement (mm),
-/// (c) normal contact force on blade 0 (N), all against time (s), and (d) the final wear
-/// profile (µm) against the angle (deg). Long series are drawn as their min/max envelope
-/// ([`envelope`]), so no peak is lost.
+/// Up to four panels in the style of the paper's Figs. 16–17, one colour per job, each drawn
+/// only when some job has its data ([`history_panels`]): blade 0 trailing-edge radial
+/// displacement (mm), casing probe radial displacement (mm), normal contact force on blade 0
+/// (N), all against time (s), and the final wear profile (µm) against the angle (deg). Long
+/// series are drawn as their min/max envelope ([`envelope`]), so no peak is lost.
+/// [`PlotError::Empty`] when no panel has data.
 pub fn time_histories(data: &TimeHistoryData, path: &Path) -> Result<(), PlotError> {
-    if data.jobs.is_empty() {
-        return Err(PlotError::Empty("time histories need at least one job"));
+    let panels = history_panels(data);
+    if panels.is_empty() {
+        return Err(PlotError::Empty(
+            "no stored time series and no wear profile for the jobs shown",
+        ));
     }
     let width = 1300;
     let legend_h = legend_height(data.jobs.iter().map(|j| j.label.as_str()), width);
+    let rows = panel_grid(panels.len()).0 as u32;
     render(
         path,
-        (width, 860 + legend_h),
+        (width, 40 + 410 * rows + legend_h),
         |a| draw_histories(a, data, legend_h),
         |a| draw_histories(a, data, legend_h),
     )
+}
+
+/// The bar of job `j` (of `k` jobs) at nodal diameter `nd` for the energy `e` (J) on a log10
+/// axis whose floor is `bottom`: corners `[(x0, bottom), (x1, max(log10 e, bottom))]` in
+/// (nodal diameter, log10 J), so a bar rises from the axis floor to its value and the largest
+/// energy draws the tallest bar. `None` for `e ≤ 0` (no logarithm).
+pub fn nd_bar(nd: usize, j: usize, k: usize, e: f64, bottom: f64) -> Option<[(f64, f64); 2]> {
+    if e.is_nan() || e <= 0.0 {
+        return None;
+    }
+    let bar = 0.8 / k.max(1) as f64;
+    let x0 = nd as f64 - 0.4 + j as f64 * bar;
+    Some([(x0, bottom), (x0 + 0.9 * bar, e.log10().max(bottom))])
 }
 
 /// Input of [`nd_energy_bars`]: per job, the strain energy per nodal diameter.
@@ -376,21 +463,14 @@ where
         })
         .y_label_formatter(&|v| format!("{v:.0}"))
         .draw()?;
-    let k = d.jobs.len().max(1) as f64;
-    let bar = 0.8 / k;
+    let k = d.jobs.len();
     for (j, (_, e)) in d.jobs.iter().enumerate() {
         let color = tab10(j);
         chart.draw_series(
             e.iter()
                 .enumerate()
-                .filter(|(_, v)| **v > 0.0)
-                .map(|(nd, v)| {
-                    let x0 = nd as f64 - 0.4 + j as f64 * bar;
-                    Rectangle::new(
-                        [(x0, bottom), (x0 + bar * 0.9, v.log10().max(bottom))],
-                        color.filled(),
-                    )
-                }),
+                .filter_map(|(nd, &v)| nd_bar(nd, j, k, v, bottom))
+                .map(|corners| Rectangle::new(corners, color.filled())),
         )?;
     }
     let labels: Vec<String> = d.jobs.iter().map(|(l, _)| l.clone()).collect();
@@ -433,5 +513,65 @@ mod tests {
         assert!(e.windows(2).all(|w| w[0].0 < w[1].0));
         // Short series come back whole.
         assert_eq!(envelope(&t[..10], &y[..10], 500).len(), 10);
+    }
+
+    /// Issue 41: on the log axis a bar starts at the floor and ends at its value, so a
+    /// larger energy draws a taller bar.
+    #[test]
+    fn log_bars_rise_from_the_floor() {
+        let bottom = -14.0;
+        let big = nd_bar(2, 0, 2, 1e-3, bottom).unwrap();
+        let small = nd_bar(2, 1, 2, 1e-9, bottom).unwrap();
+        for b in [big, small] {
+            assert_eq!(b[0].1, bottom, "starts on the axis floor");
+            assert!(b[1].1 > b[0].1, "rises");
+        }
+        assert!((big[1].1 - -3.0).abs() < 1e-12 && (small[1].1 - -9.0).abs() < 1e-12);
+        // Side by side within the diameter's slot.
+        assert!(big[1].0 <= small[0].0 && small[1].0 <= 2.4);
+        // Below the floor: a bar of zero height at the floor; no logarithm of 0.
+        let tiny = nd_bar(0, 0, 1, 1e-20, bottom).unwrap();
+        assert_eq!(tiny[1].1, bottom);
+        assert_eq!(nd_bar(0, 0, 1, 0.0, bottom), None);
+    }
+
+    fn job(label: &str, series: bool, wear: bool) -> JobHistory {
+        let n = if series { 50 } else { 0 };
+        JobHistory {
+            label: label.into(),
+            time_s: (0..n).map(|i| 1e-4 * i as f64).collect(),
+            blade_te_radial_m: (0..n).map(|i| 1e-5 * (i as f64).sin()).collect(),
+            casing_radial_m: vec![],
+            normal_force_n: (0..n).map(|i| i as f64).collect(),
+            wear_m: if wear { vec![1e-6; 36] } else { vec![] },
+        }
+    }
+
+    /// Issue 41: panels without data are left out, and a figure with none is not drawn.
+    #[test]
+    fn only_panels_with_data_are_drawn() {
+        use HistoryPanel::*;
+        let d = |jobs| TimeHistoryData {
+            jobs,
+            casing_probe: "casing probe 0".into(),
+        };
+        let none = d(vec![job("a", false, false), job("b", false, false)]);
+        assert!(history_panels(&none).is_empty());
+        let path = std::env::temp_dir().join(format!("rubscan-th-{}.png", std::process::id()));
+        assert!(matches!(
+            time_histories(&none, &path),
+            Err(PlotError::Empty(_))
+        ));
+        assert!(!path.exists(), "nothing written");
+        let wear_only = d(vec![job("a", false, true)]);
+        assert_eq!(history_panels(&wear_only), [Wear]);
+        // No casing probe series: three panels; one job's series suffice.
+        let mixed = d(vec![job("a", true, false), job("b", false, true)]);
+        assert_eq!(
+            history_panels(&mixed),
+            [BladeTrailingEdge, NormalForce, Wear]
+        );
+        time_histories(&mixed, &path).unwrap();
+        std::fs::remove_file(&path).unwrap();
     }
 }

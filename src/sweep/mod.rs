@@ -20,6 +20,7 @@ pub mod refine;
 pub mod report;
 pub mod rounds;
 pub mod runner;
+pub mod scan_figure;
 pub mod schema;
 pub mod simulator;
 pub mod slurm;

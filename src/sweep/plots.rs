@@ -189,7 +189,7 @@ pub(crate) fn tab10(i: usize) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-type DrawResult<T = ()> = Result<T, Box<dyn std::error::Error>>;
+pub(crate) type DrawResult<T = ()> = Result<T, Box<dyn std::error::Error>>;
 
 /// Renders a figure of `size` pixels to `path`, PNG or SVG by extension: drawn in memory, then
 /// written atomically ([`write_atomic`]), so a plot is either complete or absent. Returns what
@@ -246,6 +246,27 @@ pub fn text_size(text: &str, size: f64) -> (u32, u32) {
     ))
 }
 
+/// A tick label with at most `prec` decimals and no trailing zeros ("0.25", never
+/// "0.250000000").
+pub(crate) fn tick_label(v: f64, prec: usize) -> String {
+    let s = format!("{v:.prec$}");
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    };
+    if s == "-0" { "0".into() } else { s }
+}
+
+/// Decimals that tell ticks `span / 5` apart.
+pub(crate) fn tick_decimals(span: f64) -> usize {
+    if span > 0.0 && span.is_finite() {
+        (-(span / 5.0).log10()).ceil().clamp(0.0, 6.0) as usize
+    } else {
+        0
+    }
+}
+
 /// A label drawn on a figure: its text and its box in pixels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlacedLabel {
@@ -266,18 +287,22 @@ pub struct PlotLabels {
 }
 
 /// A label to place on a figure: text, size (points), colour and candidate corners.
-struct Pending {
-    text: String,
-    size: f64,
-    color: RGBColor,
-    candidates: Vec<(i32, i32)>,
+pub(crate) struct Pending {
+    /// The text.
+    pub(crate) text: String,
+    /// Font size (points).
+    pub(crate) size: f64,
+    /// Text colour.
+    pub(crate) color: RGBColor,
+    /// Candidate top-left corners (pixels), best first.
+    pub(crate) candidates: Vec<(i32, i32)>,
     /// Box drawn behind the text (labels over a colour map), if any.
-    background: Option<RGBAColor>,
+    pub(crate) background: Option<RGBAColor>,
 }
 
 /// Places `pending` labels (priority order) inside `area`, away from `obstacles`, draws the
 /// placed ones on `root` and returns them, with each pending label's box (`None`: left out).
-fn draw_labels<DB: DrawingBackend>(
+pub(crate) fn draw_labels<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     pending: Vec<Pending>,
     area: LabelBox,
@@ -318,7 +343,7 @@ where
 }
 
 /// The pixel box of a chart's plotting area.
-fn plot_box<DB: DrawingBackend, X: Ranged, Y: Ranged>(
+pub(crate) fn plot_box<DB: DrawingBackend, X: Ranged, Y: Ranged>(
     chart: &ChartContext<'_, DB, Cartesian2d<X, Y>>,
 ) -> LabelBox {
     let (xr, yr) = chart.plotting_area().get_pixel_range();
@@ -331,7 +356,7 @@ fn plot_box<DB: DrawingBackend, X: Ranged, Y: Ranged>(
 }
 
 /// `n` in Unicode subscript digits (Ω*₅).
-fn subscript(n: u32) -> String {
+pub(crate) fn subscript(n: u32) -> String {
     n.to_string()
         .chars()
         .map(|c| char::from_u32(0x2080 + c.to_digit(10).unwrap_or(0)).unwrap_or(c))
@@ -673,7 +698,7 @@ where
 
 /// Label candidates around a marker at `p`: right/left, above/below, then further away in
 /// rows of the label's height.
-fn around_marker(p: (i32, i32), size: (u32, u32)) -> Vec<(i32, i32)> {
+pub(crate) fn around_marker(p: (i32, i32), size: (u32, u32)) -> Vec<(i32, i32)> {
     let (w, h) = (size.0 as i32, size.1 as i32);
     (0..14)
         .flat_map(|k| {

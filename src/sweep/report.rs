@@ -1,5 +1,7 @@
-//! `rubscan report`: the paper's figures from a sweep's results directory: time histories of
-//! selected jobs with their wear profiles (Figs. 16–17), strain energy per nodal diameter
+//! `rubscan report`: the paper's figures from a sweep's results directory: the response
+//! against Ω with the jobs' outcomes and the predictions ([`crate::sweep::scan_figure`]),
+//! time histories of selected jobs with their wear profiles (Figs. 16–17), strain energy per
+//! nodal diameter
 //! (Fig. 18), the Campbell diagram with the critical speeds and their mode compatibility
 //! (Fig. 19) and the interaction map zoomed to the band that matters (Fig. 20), all as PNG,
 //! plus one `index.html` showing them with units in the captions.
@@ -8,7 +10,8 @@
 //! `results.parquet` (the per-job table) and, when the sweep ran with `--timeseries`,
 //! `timeseries/<job id>.parquet`. A missing or malformed manifest or table stops the report
 //! before anything is written, naming the file; a missing series or unloadable models only
-//! leave their panels out, with a note on the page.
+//! leave their panels out, with a note on the page. No figure is drawn without data: without
+//! stored series the time-history panels are left out with one note saying how to get them.
 
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
@@ -16,13 +19,19 @@ use std::path::{Path, PathBuf};
 
 use crate::io::atomic::write_atomic;
 use crate::io::timeseries::read_columns;
+use crate::sweep::checkpoint::Outcomes;
 use crate::sweep::figures::{
-    JobHistory, NdEnergyData, TimeHistoryData, nd_energy_bars, time_histories,
+    HistoryPanel, JobHistory, NdEnergyData, TimeHistoryData, history_panels, nd_energy_bars,
+    time_histories,
 };
 use crate::sweep::planner::slice_label;
 use crate::sweep::plots::{
     CampbellData, CasingMode, ImpellerBranch, ModeLine, PlotError, PlotLabels, SpectrumColumn,
     campbell_diagram, deepest_wear, interaction_data_from_records, interaction_map,
+};
+use crate::sweep::scan_figure::{
+    DEFAULT_SCAN_QUANTITY, FIRST_SCAN_LINES, ScanOverlays, ScanQuantity, response_against_speed,
+    scan_caption, scan_data, scan_rows,
 };
 use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::spec::CasingSource;
@@ -365,6 +374,8 @@ pub struct Report {
     pub campbell_labels: Option<PlotLabels>,
     /// Labels of each interaction map drawn.
     pub interaction_labels: Vec<PlotLabels>,
+    /// Labels of the response-against-Ω figure, when drawn.
+    pub scan_labels: Option<PlotLabels>,
 }
 
 /// One figure of the page: file name, title and caption (HTML-escaped when written).
@@ -383,11 +394,13 @@ fn job_label(i: usize, r: &JobRecord) -> String {
     )
 }
 
-/// The overlaid jobs' histories: series from `timeseries/<id>.parquet` where stored.
+/// The overlaid jobs' histories: series from `timeseries/<id>.parquet` where stored. The jobs
+/// without a stored series are pushed to `absent`; an unreadable one is a note.
 fn histories(
     res: &ResultsDir,
     chosen: &[&(usize, JobRecord)],
     notes: &mut Vec<String>,
+    absent: &mut Vec<usize>,
 ) -> TimeHistoryData {
     let probe = res.spec.scenario.casing_probes.first();
     let mut jobs = Vec::new();
@@ -421,10 +434,7 @@ fn histories(
             Err(e) if path.exists() => {
                 notes.push(format!("job {i}: {e:#}; its series are left out"))
             }
-            Err(_) => notes.push(format!(
-                "job {i}: no time series ({} absent; run with --timeseries)",
-                path.display()
-            )),
+            Err(_) => absent.push(*i),
         }
         jobs.push(h);
     }
@@ -564,6 +574,155 @@ fn interaction_figures(
     Ok(())
 }
 
+/// How to get the series the time-history panels need (one line on the page).
+const SERIES_HINT: &str = "`rubscan run <spec> --timeseries` stores them for every job; \
+                           `rubscan simulate <spec> --job <i>` runs one job with its series";
+
+/// The time histories of the `chosen` jobs, with the panels that have data; a note instead of
+/// empty panels when no job has a stored series.
+fn history_figure(
+    res: &ResultsDir,
+    chosen: &[&(usize, JobRecord)],
+    out: &Path,
+    figures: &mut Vec<Figure>,
+    notes: &mut Vec<String>,
+) -> Result<(), ReportError> {
+    let mut absent = Vec::new();
+    let data = histories(res, chosen, notes, &mut absent);
+    let panels = history_panels(&data);
+    let has_series = panels.iter().any(|p| *p != HistoryPanel::Wear);
+    if !has_series {
+        notes.push(format!(
+            "time histories left out: no time series stored for the jobs shown ({SERIES_HINT}){}",
+            if panels.is_empty() {
+                ""
+            } else {
+                "; their final wear profiles are shown alone"
+            }
+        ));
+    } else if !absent.is_empty() {
+        let jobs: Vec<String> = absent.iter().map(usize::to_string).collect();
+        notes.push(format!(
+            "no time series stored for job(s) {} ({SERIES_HINT})",
+            jobs.join(", ")
+        ));
+    }
+    if panels.is_empty() {
+        return Ok(());
+    }
+    time_histories(&data, &out.join("time_histories.png"))?;
+    let parts: Vec<String> = panels
+        .iter()
+        .enumerate()
+        .map(|(k, p)| match panels.len() {
+            1 => p.description(&data.casing_probe),
+            _ => format!(
+                "({}) {}",
+                (b'a' + k as u8) as char,
+                p.description(&data.casing_probe)
+            ),
+        })
+        .collect();
+    figures.push(Figure {
+        file: "time_histories.png".into(),
+        title: if has_series {
+            "Time histories and wear (Figs. 16–17)".into()
+        } else {
+            "Final wear profiles (Fig. 17)".into()
+        },
+        caption: format!("{}. One colour per job.", parts.join("; ")),
+    });
+    Ok(())
+}
+
+/// Strain energy per nodal diameter of the `chosen` jobs (Fig. 18), or a note.
+fn energy_figure(
+    chosen: &[&(usize, JobRecord)],
+    out: &Path,
+    figures: &mut Vec<Figure>,
+    notes: &mut Vec<String>,
+) -> Result<(), ReportError> {
+    let energy = NdEnergyData {
+        jobs: chosen
+            .iter()
+            .map(|(i, r)| {
+                let e = r
+                    .result
+                    .as_ref()
+                    .map_or(vec![], |x| x.strain_energy_per_nd_j.clone());
+                (job_label(*i, r), e)
+            })
+            .collect(),
+    };
+    match nd_energy_bars(&energy, &out.join("nd_strain_energy.png")) {
+        Ok(()) => figures.push(Figure {
+            file: "nd_strain_energy.png".into(),
+            title: "Strain energy per nodal diameter (Fig. 18)".into(),
+            caption: "Impeller strain energy of each nodal diameter n_d (J, log10 scale; bars \
+                      rise from the axis floor to their value), mean over the steady window of \
+                      each job; one colour per job."
+                .into(),
+        }),
+        Err(PlotError::Empty(why)) => notes.push(format!("no Fig. 18: {why}")),
+        Err(e) => return Err(e.into()),
+    }
+    Ok(())
+}
+
+/// The quantity of the response-against-Ω figure: the spec's `refine.peak_of` when it names a
+/// drawable column (the quantity the scan was refined on), else [`DEFAULT_SCAN_QUANTITY`].
+fn scan_quantity(spec: &SweepSpec) -> ScanQuantity {
+    spec.grid
+        .speed
+        .refine
+        .as_ref()
+        .and_then(|r| r.peak_of.as_deref())
+        .and_then(ScanQuantity::of)
+        .or_else(|| ScanQuantity::of(DEFAULT_SCAN_QUANTITY))
+        .expect("the default scan quantity is a table column")
+}
+
+/// The response against Ω with the outcomes and the predictions (first on the page), when
+/// some speed line has two speeds or more; a note otherwise.
+fn scan_figure(
+    res: &ResultsDir,
+    sim: Option<&ModelSimulator>,
+    out: &Path,
+    figures: &mut Vec<Figure>,
+    report: &mut Report,
+) -> Result<(), ReportError> {
+    let quantity = scan_quantity(&res.spec);
+    let rows = scan_rows(&res.records, &quantity);
+    let overlays = sim.map_or_else(ScanOverlays::default, |s| ScanOverlays {
+        critical_speeds: Some(s.critical_speeds().to_vec()),
+        critical_wave_speed: s
+            .casing_wave_speed()
+            .ok()
+            .flatten()
+            .map(|(w, n)| (w, n as u32)),
+    });
+    let data = scan_data(&rows, &quantity, &overlays, FIRST_SCAN_LINES);
+    let scanned = data.lines.iter().any(|l| {
+        l.points
+            .windows(2)
+            .any(|w| w[0].speed_rad_s != w[1].speed_rad_s)
+    });
+    if !scanned {
+        report.notes.push(
+            "no response-against-Ω figure: every speed line of the grid has a single speed".into(),
+        );
+        return Ok(());
+    }
+    let labels = response_against_speed(&data, &out.join("response_vs_speed.png"))?;
+    figures.push(Figure {
+        file: "response_vs_speed.png".into(),
+        title: "Response against rotation speed: outcomes and predictions".into(),
+        caption: scan_caption(&data, &labels),
+    });
+    report.scan_labels = Some(labels);
+    Ok(())
+}
+
 /// Writes the report of the results directory `dir` (see the module doc) and returns what
 /// it wrote. Inputs are read and checked before any file is written.
 pub fn write_report(dir: &Path, opts: &ReportOptions) -> Result<Report, ReportError> {
@@ -584,44 +743,18 @@ pub fn write_report(dir: &Path, opts: &ReportOptions) -> Result<Report, ReportEr
         ..Default::default()
     };
     let mut figures = Vec::new();
+    let sim = ModelSimulator::new(&res.spec)
+        .map_err(|e| {
+            report.notes.push(format!(
+                "models of the spec not loaded ({e:#}): no Campbell diagram, no mode lines, no \
+                 critical wave speed"
+            ))
+        })
+        .ok();
 
-    let data = histories(&res, &chosen, &mut report.notes);
-    time_histories(&data, &out.join("time_histories.png"))?;
-    figures.push(Figure {
-        file: "time_histories.png".into(),
-        title: "Time histories and wear (Figs. 16–17)".into(),
-        caption: format!(
-            "(a) radial displacement of blade 0's trailing edge (mm), (b) radial displacement \
-             at {} (mm), (c) normal contact force on blade 0 (N), against time t (s); \
-             (d) final wear depth of the coating (µm, deepest along the chord) against the \
-             angle θ (deg). One colour per job.",
-            data.casing_probe
-        ),
-    });
-
-    let energy = NdEnergyData {
-        jobs: chosen
-            .iter()
-            .map(|(i, r)| {
-                let e = r
-                    .result
-                    .as_ref()
-                    .map_or(vec![], |x| x.strain_energy_per_nd_j.clone());
-                (job_label(*i, r), e)
-            })
-            .collect(),
-    };
-    match nd_energy_bars(&energy, &out.join("nd_strain_energy.png")) {
-        Ok(()) => figures.push(Figure {
-            file: "nd_strain_energy.png".into(),
-            title: "Strain energy per nodal diameter (Fig. 18)".into(),
-            caption: "Impeller strain energy of each nodal diameter n_d (J, log10 scale), \
-                      mean over the steady window of each job; one colour per job."
-                .into(),
-        }),
-        Err(PlotError::Empty(why)) => report.notes.push(format!("no Fig. 18: {why}")),
-        Err(e) => return Err(e.into()),
-    }
+    scan_figure(&res, sim.as_ref(), &out, &mut figures, &mut report)?;
+    history_figure(&res, &chosen, &out, &mut figures, &mut report.notes)?;
+    energy_figure(&chosen, &out, &mut figures, &mut report.notes)?;
 
     let speeds: Vec<f64> = res
         .records
@@ -633,13 +766,6 @@ pub fn write_report(dir: &Path, opts: &ReportOptions) -> Result<Report, ReportEr
         speeds.iter().copied().fold(f64::INFINITY, f64::min),
         speeds.iter().copied().fold(f64::NEG_INFINITY, f64::max),
     );
-    let sim = ModelSimulator::new(&res.spec)
-        .map_err(|e| {
-            report.notes.push(format!(
-                "models of the spec not loaded ({e:#}): no Campbell diagram, no mode lines"
-            ))
-        })
-        .ok();
     let mut diameters = vec![];
     if let Some(sim) = &sim {
         let camp = campbell_data(sim, Some(focus));
@@ -690,6 +816,7 @@ fn index_html(
     sim: Option<&ModelSimulator>,
 ) -> String {
     let ok = res.records.iter().filter(|(_, r)| r.succeeded()).count();
+    let outcomes = Outcomes::of(res.records.iter().map(|(_, r)| r));
     let mut h = String::new();
     let _ = write!(
         h,
@@ -700,18 +827,22 @@ fn index_html(
          table {{ border-collapse: collapse; }} td, th {{ border: 1px solid #bbb; padding: 2px 8px; }}\n\
          td {{ text-align: right; }}\n</style>\n</head>\n<body>\n\
          <h1>rubscan report: {name}</h1>\n<p>{desc}</p>\n\
-         <p>{ok} of {n} jobs succeeded. Quantities in SI units (m, N, J, s, rad/s) unless a \
-         caption says otherwise.</p>\n",
+         <p>{n} jobs: {o} ok, {u} unstable (runaway found: a finding, not a failure), {f} \
+         failed. Quantities in SI units (m, N, J, s, rad/s) unless a caption says \
+         otherwise.</p>\n",
         name = escape(&res.spec.name),
         desc = escape(res.spec.description.as_deref().unwrap_or("")),
         n = res.records.len(),
+        o = outcomes.ok,
+        u = outcomes.unstable,
+        f = outcomes.failed,
     );
     let _ = write!(
         h,
         "<h2>Jobs shown</h2>\n<p>{}</p>\n<table>\n<tr><th>job</th><th>id</th><th>Ω (rad/s)</th>\
          <th>other parameters</th><th>max blade radial (µm)</th><th>max casing radial (µm)</th></tr>\n",
         if chosen.len() == ok {
-            "All successful jobs.".to_string()
+            "All successful (ok or unstable) jobs.".to_string()
         } else {
             format!(
                 "{} of {ok} jobs: the strongest blade response, then the lowest and highest \

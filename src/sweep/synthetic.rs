@@ -6,6 +6,11 @@
 //! so that sweeps show a resonance at the configured critical speed Ω*. It has no
 //! physical meaning beyond that; it exists so the sweep engine (planning, resume,
 //! sharding, Parquet, plots) can be exercised without the real simulator.
+//!
+//! With [`SyntheticSimulator::unstable_above_speed_rad_s`] set, jobs above that speed end
+//! `unstable`: their result carries a [`Runaway`] whose growth rate rises linearly with the
+//! speed's excess over the limit (so the report's outcome shading and growth-rate captions
+//! can be exercised end to end).
 
 use std::f64::consts::TAU;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -13,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use super::planner::{CoatingValue, Job};
 use super::{CriticalSpeed, FourierPeak, JobResult, JobSimulator, Maxima, Spectrum};
+use crate::dynamics::runaway::Runaway;
 
 /// Analytic test simulator. See the module docs for the formulas.
 #[derive(Debug, Clone)]
@@ -39,6 +45,8 @@ pub struct SyntheticSimulator {
     pub sleep: Duration,
     /// Failure rule: jobs with Ω above this speed fail with a "diverged" reason.
     pub fail_above_speed_rad_s: Option<f64>,
+    /// Runaway rule: jobs with Ω above this speed end `unstable` (see the module doc).
+    pub unstable_above_speed_rad_s: Option<f64>,
 }
 
 impl Default for SyntheticSimulator {
@@ -55,6 +63,7 @@ impl Default for SyntheticSimulator {
             max_frequency_hz: 2000.0,
             sleep: Duration::ZERO,
             fail_above_speed_rad_s: None,
+            unstable_above_speed_rad_s: None,
         }
     }
 }
@@ -160,8 +169,32 @@ impl SyntheticSimulator {
             }),
             drive_work_j: None,
             predicted: None,
-            runaway: None,
+            runaway: self.runaway(omega, lobes),
         }
+    }
+
+    /// The runaway of a job at `omega` (rad/s) under the runaway rule: growth rate
+    /// σ = 10⁴ (Ω / limit − 1) (1/s), onset at 4 ms, confirmed 2 ms later; the
+    /// growing wave has `lobes` nodal diameters and travels forward at 1.1 × the lobes'
+    /// engine order. `None` at or below the limit, or without the rule.
+    pub fn runaway(&self, omega: f64, lobes: u32) -> Option<Runaway> {
+        let limit = self.unstable_above_speed_rad_s?;
+        if omega <= limit {
+            return None;
+        }
+        let f = 1.1 * f64::from(lobes) * omega / TAU;
+        Some(Runaway {
+            onset_time_s: 4e-3,
+            detected_time_s: 6e-3,
+            growth_rate_per_s: 1e4 * (omega / limit - 1.0),
+            growth_fit_r2: 0.99,
+            energy_growth: 12.0,
+            drive_work_j: 1.0,
+            nodal_diameter: Some(lobes),
+            frequency_hz: Some(f),
+            forward: Some(true),
+            rotating_frame_frequency_hz: Some(f - f64::from(lobes) * omega / TAU),
+        })
     }
 }
 
