@@ -121,7 +121,7 @@ pub struct RunawayMonitor {
 }
 
 impl RunawayMonitor {
-    /// A monitor with envelope blocks of `period` (s, one period of the wave that can grow)
+    /// A monitor with envelope blocks of `period` (s, > 0: one period of the wave that can grow)
     /// that starts watching at `start` (s, the end of the external load's ramp).
     pub fn new(period: f64, start: f64) -> Self {
         Self {
@@ -136,7 +136,7 @@ impl RunawayMonitor {
     /// Takes the sample at time `t` (s): vibration energy `energy` (J) of both structures and
     /// the drive work (J) so far. Returns the growth when this sample confirms a runaway.
     pub fn observe(&mut self, t: f64, energy: f64, drive_work: f64) -> Option<Growth> {
-        if t < self.start || !(self.period > 0.0) {
+        if t < self.start {
             return None;
         }
         let index = ((t - self.start) / self.period).floor() as i64;
@@ -190,7 +190,7 @@ impl RunawayMonitor {
     /// The growth when the blocks kept pass every test of the criterion.
     fn confirmed(&self) -> Option<Growth> {
         let (lo, hi) = (self.blocks.front()?, self.blocks.back()?);
-        if self.blocks.len() <= MIN_PERIODS || !(hi.energy >= MIN_ENERGY_GROWTH * lo.energy) {
+        if self.blocks.len() <= MIN_PERIODS || hi.energy < MIN_ENERGY_GROWTH * lo.energy {
             return None;
         }
         if self.blocks.iter().any(|b| b.energy > hi.energy) {

@@ -283,9 +283,12 @@ fn peak_fields() -> Fields {
     ])
 }
 
+/// A float64 runaway column: its name and how a runaway gives its value.
+type RunawayColumn = (&'static str, fn(&Runaway) -> Option<f64>);
+
 /// The runaway columns of an `unstable` row that are float64 (null on other rows), in table
 /// order.
-const RUNAWAY_F64: [(&str, fn(&Runaway) -> Option<f64>); 8] = [
+const RUNAWAY_F64: [RunawayColumn; 8] = [
     ("runaway_onset_s", |r| Some(r.onset_time_s)),
     ("runaway_detected_s", |r| Some(r.detected_time_s)),
     ("growth_rate_per_s", |r| Some(r.growth_rate_per_s)),
