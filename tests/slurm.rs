@@ -133,8 +133,10 @@ fn status_and_merge_name_the_shards_not_done() {
         "{text}"
     );
     assert!(
-        text.lines()
-            .any(|l| l.split_whitespace().take(4).eq(["total", "3", "0", "3"])),
+        text.lines().any(|l| l
+            .split_whitespace()
+            .take(5)
+            .eq(["total", "3", "0", "0", "3"])),
         "{text}"
     );
 

@@ -249,7 +249,11 @@ fn parquet_reads_back_with_documented_columns_and_failures() {
         let ok = match f.name().as_str() {
             "job_index" | "steps_over_gap_tolerance" => dt == &DataType::UInt64,
             "job_id" | "status" | "reason" => dt == &DataType::Utf8,
-            "critical_nodal_diameter" => dt == &DataType::UInt32,
+            "critical_nodal_diameter"
+            | "refinement_round"
+            | "growing_nodal_diameter"
+            | "predicted_nodal_diameter" => dt == &DataType::UInt32,
+            "growing_wave_forward" | "predicted_stable" => dt == &DataType::Boolean,
             "strain_energy_per_nd_j" | "spectrum_amplitude_m" => f64_list(dt),
             "wear_profile_m" => matches!(dt, DataType::List(f) if f64_list(f.data_type())),
             "fourier_peaks" => match dt {
