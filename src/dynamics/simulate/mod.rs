@@ -1104,6 +1104,8 @@ pub struct Simulation<'a> {
     /// confirmed, which ends the run.
     watch: Option<RunawayWatch>,
     runaway: Option<Runaway>,
+    /// Vibration energy (J) of both structures at the last sample step (box 6 computes it).
+    sample_energy: f64,
     /// Probe buffers of a sample (per blade, per casing probe, per nodal diameter).
     le: Vec<f64>,
     te: Vec<f64>,
@@ -1239,6 +1241,7 @@ impl<'a> Simulation<'a> {
             casing_wave,
             watch,
             runaway: None,
+            sample_energy: 0.0,
             le: vec![0.0; n_blades],
             te: vec![0.0; n_blades],
             casing_radial: vec![0.0; case.casing_probes.len()],
@@ -1966,6 +1969,8 @@ impl<'a> Simulation<'a> {
         let b = &self.blades;
         let ki = b.kernel.get();
         ki.nd_strain_energy(&mut self.nd_energy);
+        let impeller_energy = ki.energies();
+        self.sample_energy = impeller_energy.total() + casing_energy.map_or(0.0, |e| e.total());
         let sample = Sample {
             time: self.t1,
             blade_le_radial: &self.le,
@@ -1976,7 +1981,7 @@ impl<'a> Simulation<'a> {
             min_gap: self.min_gap,
             residual_penetration: self.residual,
             drive_work: self.drive_work,
-            impeller_energy: ki.energies(),
+            impeller_energy,
             casing_energy,
             impeller_nd_strain_energy: &self.nd_energy,
             coating: self.coating.as_ref().map(|c| CoatingSample {

@@ -45,7 +45,8 @@ impl RunawayWatch {
 }
 
 impl Simulation<'_> {
-    /// Watches for a runaway on sample steps; sets `self.runaway` when one is confirmed.
+    /// Watches for a runaway on sample steps (after box 6, whose energies it reads); sets
+    /// `self.runaway` when one is confirmed.
     pub(super) fn watch_runaway(&mut self) {
         if !self.sample_step || self.runaway.is_some() {
             return;
@@ -53,11 +54,9 @@ impl Simulation<'_> {
         let Some(mut watch) = self.watch.take() else {
             return;
         };
-        let mut energy = self.blades.kernel.get().energies().total();
-        if let Some(f) = self.casing.flexible() {
-            energy += f.kernel.get().energies().total();
-        }
-        let growth = watch.monitor.observe(self.t1, energy, self.drive_work);
+        let growth = watch
+            .monitor
+            .observe(self.t1, self.sample_energy, self.drive_work);
         if growth.is_none() && watch.monitor.armed() {
             self.follow_wave(&mut watch);
         }
