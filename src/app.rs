@@ -17,9 +17,12 @@ use crate::dynamics::{Boundary, SimError, Simulation};
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
 use crate::io::timeseries::TimeSeriesWriter;
+use crate::sweep::checkpoint::read_record;
+use crate::sweep::planner::Job;
 use crate::sweep::plots::{campbell_diagram, write_sweep_plots};
 use crate::sweep::probe_report::ProbeReport;
 use crate::sweep::report::{self, campbell_data, write_report};
+use crate::sweep::rounds::{located_per_line, refined_plan};
 use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::slurm;
 use crate::sweep::status::status as sweep_status;
@@ -493,7 +496,40 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
         sim = sim.with_timeseries(opts.output_dir.join("timeseries"));
     }
     let summary = run_sweep(&spec, &opts, &sim)?;
-    let records = load_records(&opts.output_dir, plan.jobs.iter());
+    // A refined sweep's jobs are those of its rounds so far.
+    let out = &opts.output_dir;
+    let finished = |job: &Job| read_record(out, &job.id).ok().flatten();
+    let plan = refined_plan(&spec, &finished)?;
+    let records = load_records(out, plan.jobs.iter());
+    for (line, found) in located_per_line(&spec, &plan, &records).iter().enumerate() {
+        for b in &found.boundaries {
+            eprintln!(
+                "[sweep] line {line}: {} from between {:.2} and {:.2} rad/s{}",
+                if b.unstable_above { "unstable" } else { "ok" },
+                b.lo_rad_s,
+                b.hi_rad_s,
+                if b.within_tolerance {
+                    ""
+                } else {
+                    " (not yet within the tolerance)"
+                }
+            );
+        }
+        for p in found.peaks.iter().filter(|p| !p.at_end) {
+            eprintln!(
+                "[sweep] line {line}: peak {:.4e} at {:.2} rad/s, between {:.2} and {:.2} rad/s{}",
+                p.value,
+                p.best_rad_s,
+                p.lo_rad_s,
+                p.hi_rad_s,
+                if p.within_tolerance {
+                    ""
+                } else {
+                    " (not yet within the tolerance)"
+                }
+            );
+        }
+    }
     let lobes = report::lobes(&spec);
     let orders: Vec<u32> = (1..=8).map(|i| i * lobes).collect();
     let plots =
