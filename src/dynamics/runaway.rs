@@ -2,8 +2,9 @@
 //! fed by the work of the imposed rotation, after the external load has stopped growing.
 //!
 //! Above a flexible casing's critical wave speed a closed rotating contact can feed the
-//! casing's backward waves with the rotation's energy (the moving-load instability: Iwan &
-//! Moeller 1976, rotor and stator exchanged; `tests/supercritical.rs`). The simulation then
+//! casing's waves (forward, slower than the blades) with the rotation's energy (the
+//! moving-load instability: Iwan & Moeller 1976, rotor and stator exchanged;
+//! `tests/supercritical.rs`). The simulation then
 //! grows until the contact solve gives up. That growth is the answer a scan asks for, so it
 //! is detected while it happens and the job stops with its figures.
 //!

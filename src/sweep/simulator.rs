@@ -304,8 +304,8 @@ impl ModelSimulator {
             format!(
                 "{above} of {} jobs run above the flexible casing's critical wave speed \
                  {omega_c:.1} rad/s (nodal diameter {k}), where a contact that stays closed can \
-                 feed the casing's backward waves with the rotation's energy: their response may \
-                 grow until the contact solve gives up (docs/validation.md)",
+                 feed the casing's waves with the rotation's energy: such a job stops early as \
+                 `unstable` once its runaway is confirmed (docs/validation.md)",
                 jobs.len()
             )
         }))

@@ -1296,7 +1296,8 @@ impl<'a> Simulation<'a> {
 
     /// `e` with, when the response ran away above the flexible casing's critical wave speed,
     /// the energy the rotation fed in: a diverged or failed contact there is the moving-load
-    /// instability of the casing's backward waves, not a fault of the solve.
+    /// instability of the casing's waves (forward in the fixed frame, slower than the blades),
+    /// not a fault of the solve.
     fn explain(&self, e: SimError) -> SimError {
         let Some((omega_c, k)) = self.casing_wave.filter(|w| self.case.omega > w.0) else {
             return e;
@@ -1304,7 +1305,8 @@ impl<'a> Simulation<'a> {
         let context = format!(
             " (Ω = {:.1} rad/s is above the flexible casing's critical wave speed {omega_c:.1} \
              rad/s, nodal diameter {k}, where the rotating contact can feed the casing's \
-             backward waves: the rotation had done {:.4e} J of work through the contact forces)",
+             waves, slower than the blades: the rotation had done {:.4e} J of work through the \
+             contact forces)",
             self.case.omega, self.drive_work
         );
         match e {
