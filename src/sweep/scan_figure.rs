@@ -747,10 +747,10 @@ where
             l.points
                 .iter()
                 .filter_map(|p| Some((p.speed_rad_s, p.value?))),
-            color.stroke_width(1),
+            color.stroke_width(4),
         ))?;
         for p in &l.points {
-            let r = if p.refined { 3 } else { 5 };
+            let r = if p.refined { 5 } else { 7 };
             let at = (p.speed_rad_s, p.value.unwrap_or(0.0));
             match (p.outcome, p.value) {
                 (PointOutcome::Failed, _) | (_, None) => {
