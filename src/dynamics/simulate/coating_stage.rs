@@ -1,0 +1,402 @@
+//! The abradable coating's stage of the time loop (paper Fig. 11): its elements under the
+//! blade tips, their law, the forces on both structures and the wear they leave.
+
+use super::*;
+
+/// The abradable coating in the time loop (paper §4.1, Fig. 11).
+///
+/// Order within a step (after the prediction and the projection giving d*):
+/// 1. [`CoatingStage::apply`]: a node with `d* ≤ 0` reached the casing: the element under it is
+///    marked for full removal and the node is quarantined (no coating force this step; the
+///    Lagrange multipliers act). For every other node the gap to the worn coating surface is
+///    `d_abr = d* − e_abr (1 − ε_p(θ))` (θ = fixed-frame angle of its closest point, row = its
+///    contact row); if `d_abr < 0` the element law gives the force `F ≥ 0` at the incursion
+///    `δ = e_abr − d*`, applied like a Lagrange force: `F (n + μ t)` on the blade node
+///    (t of eq. 15) and `−F (n + μ t)` on the casing at the closest point through `B̂ c`.
+/// 2. The caller corrects both structures with these known forces (`u += A⁻¹ f_abr`),
+///    re-projects the blade nodes and only then builds the Lagrange problem, so the multipliers
+///    see the coating forces in their predicted gaps (corrected gap `d* + G A⁻¹ f_abr + W λ`).
+///    A non-quarantined node pushed through the casing by that correction is flagged for
+///    removal too ([`CoatingStage::flag_penetrations`]).
+/// 3. [`CoatingStage::commit`] at the end of the step commits the trial element states and the
+///    removals (plastic strain never decreases, so the order does not matter).
+///
+/// With a massless boundary a tip node has no mass and steps 1–2 would not be stable (`k w`
+/// is not small, [`CoatingStage::check_stability`]): [`CoatingStage::laws_of`] replaces them.
+/// A node with `d* ≤ 0` is handled as in step 1; every node below the worn surface becomes a
+/// candidate of the contact problem with its element's law, and box 4 solves its force and
+/// plastic shortening with the Lagrange multipliers ([`coated_solve`]); a node the solve takes
+/// to the casing is removed and solved again as a Lagrange contact
+/// ([`CoatingStage::wear_through`]). [`CoatingStage::implicit_force`] then keeps the solved
+/// states, and step 3 commits them.
+pub(super) struct CoatingStage {
+    pub(super) layer: CoatingLayer,
+    /// Impeller contact node index j → coating row.
+    pub(super) row_of: Vec<usize>,
+    pub(super) mu: f64,
+    pub(super) nbi: usize,
+    pub(super) pending: Vec<ElementUpdate>,
+    pub(super) removals: Vec<(usize, usize)>,
+    /// Coating force per blade of the current step (N), and their torque about the axis
+    /// (N·m, fixed frame).
+    pub(super) blade_force: Vec<f64>,
+    pub(super) torque: f64,
+    /// Boundary forces of the current step (sector-major), impeller and casing.
+    pub(super) fi: Vec<f64>,
+    pub(super) fc: Vec<f64>,
+    pub(super) wu: Vec<f64>,
+    pub(super) wv: Vec<f64>,
+    pub(super) max_wear_row: Vec<f64>,
+    pub(super) removed_row: Vec<usize>,
+    pub(super) out: CoatingOutput,
+    /// With a massless boundary, per blade-tip node the row, element and law of the element
+    /// it presses this step ([`CoatingStage::laws_of`]); empty with the paper's formulation.
+    pub(super) node_law: Vec<Option<(usize, usize, CoatingLaw)>>,
+    /// With a massless boundary, per blade-tip node the fixed-frame angle (rad) of its closest
+    /// point in this step and in the previous one, NaN when it was not within `e_abr` of the
+    /// casing: a step may move a tip over more than an element (`CoatingStage::cut_swept`).
+    pub(super) theta_now: Vec<f64>,
+    pub(super) theta_prev: Vec<f64>,
+}
+
+impl CoatingStage {
+    pub(super) fn new(
+        cc: &CoatingCase,
+        impeller: &CyclicRom,
+        blades: &Blades,
+        mu: f64,
+        casing: &CasingSide,
+    ) -> Result<Self, SimError> {
+        let bad = |m: String| SimError::InvalidCase(m);
+        let (rows_i, n_rows) = (&blades.rows, blades.n_rows);
+        let (ncs, mc) = (casing.n_sectors, casing.rows);
+        let mut row_pos = vec![None; n_rows];
+        for (c, &r) in impeller.contact_nodes.iter().zip(rows_i) {
+            row_pos[r].get_or_insert(c.position);
+        }
+        let row_pos: Vec<[f64; 3]> = row_pos
+            .into_iter()
+            .enumerate()
+            .map(|(r, p)| p.ok_or_else(|| bad(format!("impeller contact row {r} has no node"))))
+            .collect::<Result<_, _>>()?;
+        let area = cc.resolve_tip_area(&row_pos).map_err(bad)?;
+        let layer = CoatingLayer::new(cc.material, cc.eta, area)?;
+        let nbl = impeller.n_sectors;
+        let nbi = 3 * impeller.n_contact();
+        let nn = nbl * impeller.n_contact();
+        Ok(Self {
+            layer,
+            row_of: rows_i.clone(),
+            mu,
+            nbi,
+            pending: Vec::with_capacity(nn),
+            removals: Vec::with_capacity(2 * nn),
+            blade_force: vec![0.0; nbl],
+            torque: 0.0,
+            fi: vec![0.0; nbl * nbi],
+            fc: vec![0.0; ncs * 3 * mc],
+            wu: vec![0.0; ncs],
+            wv: vec![0.0; mc],
+            max_wear_row: vec![0.0; n_rows],
+            removed_row: vec![0; n_rows],
+            out: CoatingOutput {
+                eta: cc.eta,
+                thickness: cc.material.thickness,
+                ..Default::default()
+            },
+            node_law: Vec::new(),
+            theta_now: Vec::new(),
+            theta_prev: Vec::new(),
+        })
+    }
+
+    /// Whether the coating force is solved with the displacement (massless boundary).
+    pub(super) fn implicit(&self) -> bool {
+        !self.node_law.is_empty()
+    }
+
+    /// Step 1 with a massless boundary: a node with `d* ≤ 0` reached the casing: its element is
+    /// marked for removal and the node is a Lagrange contact (as in step 1 of the paper's
+    /// formulation). Every other node below the worn surface (`d* < e_abr (1 − ε_p)`) gets
+    /// the law of its element, which box 4 solves with the boundary's static response.
+    pub(super) fn laws_of(&mut self, nci: usize, proj: &[Projection]) -> Result<(), SimError> {
+        self.pending.clear();
+        self.removals.clear();
+        self.blade_force.iter_mut().for_each(|x| *x = 0.0);
+        let e_abr = self.layer.material().thickness;
+        std::mem::swap(&mut self.theta_prev, &mut self.theta_now);
+        for (node, p) in proj.iter().enumerate() {
+            self.node_law[node] = None;
+            self.theta_now[node] = f64::NAN;
+            if p.gap >= e_abr {
+                continue;
+            }
+            let row = self.row_of[node % nci];
+            let theta = p.point.y.atan2(p.point.x);
+            self.theta_now[node] = theta;
+            let (element, law) = self.layer.law(row, theta)?;
+            if p.gap <= 0.0 {
+                self.removals.push((row, element));
+                self.cut_swept(node, row, p.gap)?;
+            } else if p.gap < law.remaining {
+                self.node_law[node] = Some((row, element, law));
+            } else {
+                // Above its element's worn surface, maybe not above the ones jumped over.
+                self.cut_swept(node, row, p.gap)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The elements that tip `node` (row `row`) jumped over in the step, between its element
+    /// of the previous step and this one, are cut as the tip's own element is, at the tip's
+    /// gap to the casing at the end of the step `gap` (m): removed when it is ≤ 0. (The paper's
+    /// steps move a tip by less than an element; a massless boundary's may not.)
+    pub(super) fn cut_swept(&mut self, node: usize, row: usize, gap: f64) -> Result<(), SimError> {
+        let (from, to) = (self.theta_prev[node], self.theta_now[node]);
+        if from.is_nan() || to.is_nan() {
+            return Ok(());
+        }
+        let e_abr = self.layer.material().thickness;
+        for theta in self.layer.centres_between(from, to)? {
+            if gap <= 0.0 {
+                let element = self.layer.element_index(theta)?;
+                self.removals.push((row, element));
+                continue;
+            }
+            let (f, up) = self.layer.trial(row, theta, e_abr - gap)?;
+            if f > 0.0 {
+                self.pending.push(up);
+            }
+        }
+        Ok(())
+    }
+
+    /// The contact solve took `node` through its element to the casing: the element, and any
+    /// jumped over, are removed.
+    pub(super) fn wear_through(&mut self, node: usize) -> Result<(), SimError> {
+        if let Some((row, element, _)) = self.node_law[node].take() {
+            self.removals.push((row, element));
+            self.cut_swept(node, row, 0.0)?;
+        }
+        Ok(())
+    }
+
+    /// The solved force `lambda` (N) of `node` (on blade `blade`) on its element, the
+    /// element's plastic shortening `plastic` (m) in the step, and the tip's gap to the casing
+    /// at the end of the step `gap` (m), at which the elements it jumped over are cut.
+    pub(super) fn implicit_force(
+        &mut self,
+        node: usize,
+        blade: usize,
+        (lambda, plastic, gap): (f64, f64, f64),
+    ) -> Result<(), SimError> {
+        let Some((row, element, _)) = self.node_law[node] else {
+            return Ok(());
+        };
+        if plastic > 0.0 {
+            let up = self.layer.plastic_update(row, element, plastic)?;
+            self.pending.push(up);
+        }
+        self.cut_swept(node, row, gap)?;
+        self.blade_force[blade] += lambda;
+        Ok(())
+    }
+
+    /// The step's coating statistics, once its forces are known.
+    pub(super) fn finish_step(&mut self) {
+        if self.blade_force.iter().any(|&f| f > 0.0) {
+            self.out.coating_steps += 1;
+            let peak = self.blade_force.iter().fold(0.0f64, |m, &x| m.max(x));
+            self.out.peak_force = self.out.peak_force.max(peak);
+        }
+    }
+
+    /// Elastic stiffness `E A_r / e_abr` (N/m) of the elements of row `r`.
+    pub(super) fn elastic_stiffness(&self, row: usize) -> f64 {
+        let m = self.layer.material();
+        m.young * self.layer.tip_area()[row] / m.thickness
+    }
+
+    /// Step 1 of the stage (see the type doc): trial forces of every node from the predicted
+    /// projections; fills `fi`, `fc`, `blade_force`. Returns whether any force is non-zero.
+    pub(super) fn apply(
+        &mut self,
+        fr: &StepFrames,
+        proj: &[Projection],
+        gam: &[Vector3<f64>],
+        gam_prev: &[Vector3<f64>],
+    ) -> Result<bool, SimError> {
+        self.pending.clear();
+        self.removals.clear();
+        self.blade_force.iter_mut().for_each(|x| *x = 0.0);
+        self.torque = 0.0;
+        let e_abr = self.layer.material().thickness;
+        let mut any = false;
+        for (node, p) in proj.iter().enumerate() {
+            // Beyond the unworn surface (or a stale projection, provably beyond the projector's
+            // margin e_abr): no element to look up.
+            if p.gap >= e_abr {
+                continue;
+            }
+            let (s, j) = (node / fr.nci, node % fr.nci);
+            let row = self.row_of[j];
+            let theta = p.point.y.atan2(p.point.x);
+            if p.gap <= 0.0 {
+                let el = self.layer.element_index(theta)?;
+                self.removals.push((row, el));
+                continue;
+            }
+            if p.gap >= self.layer.remaining_thickness(row, theta)? {
+                continue;
+            }
+            let (f, up) = self.layer.trial(row, theta, e_abr - p.gap)?;
+            self.pending.push(up);
+            if f <= 0.0 {
+                continue;
+            }
+            if !any {
+                self.fi.iter_mut().for_each(|x| *x = 0.0);
+                self.fc.iter_mut().for_each(|x| *x = 0.0);
+                any = true;
+            }
+            let t = if self.mu > 0.0 {
+                // Relative increment of the node w.r.t. the casing material point (eq. 15):
+                // only friction reads it.
+                let mut inc = gam[node] - gam_prev[node];
+                if fr.casing.is_some() {
+                    inc -= fr
+                        .past
+                        .increment(fr.spline, fr.q, node, &p.param, fr.lazy)?;
+                }
+                friction_direction(&p.normal, &inc)
+            } else {
+                None
+            };
+            let fdir = (p.normal + t.unwrap_or_else(Vector3::zeros) * self.mu) * f;
+            let floc = fr.rot_i[s].transpose() * fr.r_om.transpose() * fdir;
+            for d in 0..3 {
+                self.fi[s * self.nbi + 3 * j + d] += floc[d];
+            }
+            if let Some(cf) = fr.casing {
+                cf.add_force(
+                    fr.spline,
+                    &p.param,
+                    &(-fdir),
+                    (&mut self.wu, &mut self.wv),
+                    &mut self.fc,
+                )?;
+            }
+            self.blade_force[s] += f;
+            self.torque += gam[node].cross(&fdir).z;
+        }
+        if any {
+            if let Some(cf) = fr.casing {
+                cf.finish_forces(&mut self.fc);
+            }
+            self.out.coating_steps += 1;
+            let peak = self.blade_force.iter().fold(0.0f64, |m, &x| m.max(x));
+            self.out.peak_force = self.out.peak_force.max(peak);
+        }
+        Ok(any)
+    }
+
+    /// Flags for removal the elements under nodes that penetrate the casing after the coating
+    /// correction (projections of the corrected state).
+    pub(super) fn flag_penetrations(
+        &mut self,
+        nci: usize,
+        proj: &[Projection],
+    ) -> Result<(), SimError> {
+        for (node, p) in proj.iter().enumerate() {
+            if p.gap < 0.0 {
+                let row = self.row_of[node % nci];
+                let el = self.layer.element_index(p.point.y.atan2(p.point.x))?;
+                self.removals.push((row, el));
+            }
+        }
+        Ok(())
+    }
+
+    /// Step 3: commits the trial states and the removals of the step; updates the running
+    /// per-row maximum wear and removal counts (wear never decreases, so running values are exact).
+    pub(super) fn commit(&mut self) -> Result<(), SimError> {
+        let e_abr = self.layer.material().thickness;
+        for up in &self.pending {
+            self.layer.commit(up)?;
+            let w = self.layer.plastic_strain(up.row, up.element)? * e_abr;
+            self.max_wear_row[up.row] = self.max_wear_row[up.row].max(w);
+        }
+        for &(row, el) in &self.removals {
+            if self.layer.plastic_strain(row, el)? < 1.0 {
+                self.layer.remove(row, el)?;
+                self.removed_row[row] += 1;
+                self.max_wear_row[row] = e_abr;
+            }
+        }
+        self.pending.clear();
+        self.removals.clear();
+        Ok(())
+    }
+
+    /// The final coating probes.
+    pub(super) fn finish(mut self) -> Result<CoatingOutput, SimError> {
+        self.out.final_wear = (0..self.layer.n_rows())
+            .map(|r| self.layer.wear_profile(r))
+            .collect::<Result<_, _>>()?;
+        self.out.removed_elements = self.removed_row.clone();
+        self.out.max_wear_final = self.layer.max_wear();
+        Ok(self.out)
+    }
+}
+
+impl CoatingStage {
+    /// Refuses a coating too stiff for the explicit treatment of its force. The coating force
+    /// is evaluated on the predicted position and applied through `A⁻¹`: for a node of normal
+    /// flexibility `w = nᵀ A⁻¹ n` (impeller + casing, m/N, ∝ h²) on an element of stiffness
+    /// `k = E A / e_abr` the step map is `u ← (1 − k w) u*`, stable for `k w < 4/3` and
+    /// non-oscillating for `k w < 1`, which is required here.
+    pub(super) fn check_stability(
+        &self,
+        blades: &mut Blades,
+        casing: Option<&mut FlexibleCasing>,
+    ) -> Result<(), SimError> {
+        let unit_radial = |k: &mut dyn StructureKernel, e: &[Vector3<f64>]| {
+            let nb = k.n_boundary();
+            let mut f = vec![0.0; k.n_sectors() * nb];
+            let mut u = vec![0.0; k.n_sectors() * nb];
+            e.iter()
+                .enumerate()
+                .map(|(j, ej)| {
+                    f.iter_mut().for_each(|x| *x = 0.0);
+                    for d in 0..3 {
+                        f[3 * j + d] = ej[d];
+                    }
+                    k.response(&f, &mut u);
+                    (0..3).map(|d| ej[d] * u[3 * j + d]).sum::<f64>()
+                })
+                .collect::<Vec<f64>>()
+        };
+        let w_i = unit_radial(blades.kernel.get_mut(), &blades.radial);
+        let w_c = casing.map_or(0.0, |f| {
+            unit_radial(f.kernel.get_mut(), &f.radial)
+                .into_iter()
+                .fold(0.0f64, f64::max)
+        });
+        for (j, wi) in w_i.iter().enumerate() {
+            let k = self.elastic_stiffness(self.row_of[j]);
+            let ratio = k * (wi + w_c);
+            if ratio.is_nan() || ratio >= 1.0 {
+                return Err(SimError::InvalidCase(format!(
+                    "coating too stiff for the time step: row {} has E·A/e_abr = {k:.3e} N/m and \
+                     contact flexibility {:.3e} m/N, k·w = {ratio:.3} ≥ 1; reduce numerics.time_step_s \
+                     (k·w ∝ h²) or the tip area, or set numerics.boundary \"massless\" (the coating \
+                     force is then solved with the displacement)",
+                    self.row_of[j],
+                    wi + w_c
+                )));
+            }
+        }
+        Ok(())
+    }
+}
