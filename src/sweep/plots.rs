@@ -749,17 +749,7 @@ where
         .x_label_area_size(45)
         .y_label_area_size(70)
         .build_cartesian_2d(x_lo..x_hi, 0.0..f_max)?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .bold_line_style(BLACK.mix(0.12))
-        .label_style(("sans-serif", 13))
-        .axis_desc_style(("sans-serif", 15))
-        .x_desc("rotation speed Ω (rad/s)")
-        .y_desc("frequency (Hz)")
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| format!("{v:.0}"))
-        .draw()?;
+    draw_speed_mesh(&mut chart, "frequency (Hz)", &|v| format!("{v:.0}"))?;
     draw_campbell_curves(&mut chart, d, (x_lo, x_hi), f_max)?;
     let area = plot_box(&chart);
     let legend = campbell_legend(&root, d, (area.x0 + 8, area.y0 + 8))?;
@@ -771,6 +761,30 @@ where
 /// The swept speed band and the mode lines of the Campbell diagram: casing modes dashed,
 /// impeller backward waves seen from the fixed frame solid (speeds `x` in rad/s, up to
 /// `f_max` Hz).
+/// Draws the mesh of a chart against rotation speed, as every speed-scan figure has it: a
+/// light grid, Ω in rad/s on x without decimals, `y_desc` and the `y_label` ticks on y.
+pub(crate) fn draw_speed_mesh<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    y_desc: &str,
+    y_label: &dyn Fn(&f64) -> String,
+) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .bold_line_style(BLACK.mix(0.12))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 15))
+        .x_desc("rotation speed Ω (rad/s)")
+        .y_desc(y_desc)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(y_label)
+        .draw()?;
+    Ok(())
+}
+
 fn draw_campbell_curves<DB: DrawingBackend>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     d: &CampbellData,

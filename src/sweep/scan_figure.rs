@@ -19,8 +19,8 @@ use crate::sweep::checkpoint::{JobRecord, JobStatus, Outcomes};
 use crate::sweep::labels::LabelBox;
 use crate::sweep::planner::slice_label;
 use crate::sweep::plots::{
-    DrawResult, Pending, PlotError, PlotLabels, draw_labels, plot_box, render, subscript, tab10,
-    text_size, tick_decimals, tick_label,
+    DrawResult, Pending, PlotError, PlotLabels, draw_labels, draw_speed_mesh, plot_box, render,
+    subscript, tab10, text_size, tick_decimals, tick_label,
 };
 use crate::sweep::refine::{PEAK_QUANTITIES, PointOutcome, quantity_of};
 
@@ -846,17 +846,9 @@ where
         .build_cartesian_2d(x_lo..x_hi, 0.0..y_max)?
         .set_secondary_coord(x_lo..x_hi, (s_lo - s_pad)..(s_hi + s_pad));
     let y_prec = tick_decimals(y_max);
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .bold_line_style(BLACK.mix(0.1))
-        .label_style(("sans-serif", 13))
-        .axis_desc_style(("sans-serif", 15))
-        .x_desc("rotation speed Ω (rad/s)")
-        .y_desc(d.quantity.axis_label())
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| tick_label(*v, y_prec))
-        .draw()?;
+    draw_speed_mesh(&mut chart, &d.quantity.axis_label(), &|v| {
+        tick_label(*v, y_prec)
+    })?;
     if has_prediction {
         chart
             .configure_secondary_axes()

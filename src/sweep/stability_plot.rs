@@ -8,7 +8,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::analysis::stability::StabilityAtSpeed;
-use crate::sweep::plots::{PlotError, render, tab10};
+use crate::sweep::plots::{PlotError, draw_speed_mesh, render, tab10};
 
 /// Input of [`stability_diagram`].
 #[derive(Debug, Clone)]
@@ -81,16 +81,7 @@ where
         .x_label_area_size(45)
         .y_label_area_size(70)
         .build_cartesian_2d(x_lo..x_hi.max(x_lo + 1e-9), (y_lo - pad)..(y_hi + pad))?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .bold_line_style(BLACK.mix(0.12))
-        .label_style(("sans-serif", 13))
-        .axis_desc_style(("sans-serif", 15))
-        .x_desc("rotation speed Ω (rad/s)")
-        .y_desc("growth rate σ (1/s)")
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .draw()?;
+    draw_speed_mesh(&mut chart, "growth rate σ (1/s)", &|v| format!("{v:.0}"))?;
     chart.draw_series(LineSeries::new([(x_lo, 0.0), (x_hi, 0.0)], BLACK.mix(0.5)))?;
     for (i, (nd, pts)) in lines.iter().enumerate() {
         let color = tab10(i);

@@ -526,9 +526,16 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
     })));
     cols.push(f64_col(rows.iter().map(|(_, r)| Some(r.wall_time_s))));
 
+    let schema = Arc::new(table_schema(&cols));
+    RecordBatch::try_new(schema, cols).context("building the results table")
+}
+
+/// The table's schema for its columns `cols` (in [`COLUMNS`] order): names, nullability, and
+/// each column's unit and description as field metadata.
+fn table_schema(cols: &[ArrayRef]) -> Schema {
     let fields: Vec<Field> = COLUMNS
         .iter()
-        .zip(&cols)
+        .zip(cols)
         .map(|(&(name, unit, desc), col)| {
             let nullable = !matches!(
                 name,
@@ -548,8 +555,7 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
             Field::new(name, col.data_type().clone(), nullable).with_metadata(md)
         })
         .collect();
-    let schema = Arc::new(Schema::new(fields));
-    RecordBatch::try_new(schema, cols).context("building the results table")
+    Schema::new(fields)
 }
 
 /// Writes the results table to `path` atomically ([`AtomicFile`]), ZSTD compressed.
