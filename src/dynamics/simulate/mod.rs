@@ -377,6 +377,9 @@ struct FlexibleCasing {
     radial: Vec<Vector3<f64>>,
     /// Contact-node displacements (m, sector-major) of the casing probes, scratch.
     nodes: Vec<f64>,
+    /// The contact nodes' quasi-static displacements (m, sector-major) under the full
+    /// external load (empty without one): what the runaway watch takes out of `nodes`.
+    load_distortion: Vec<f64>,
 }
 
 /// The casing in the time loop: its spline surface (eqs. 5–13) and, when flexible, its kernel.
@@ -469,6 +472,7 @@ impl CasingSide {
                         .map(|c| radial(&c.position))
                         .collect(),
                     nodes: vec![0.0; n_sectors * 3 * rows],
+                    load_distortion: Vec::new(),
                 })
             }
             _ => None,
@@ -633,6 +637,8 @@ fn set_casing_load(
     let scale = load.static_displacement / peak;
     pat.iter_mut().for_each(|x| *x *= scale);
     fc.kernel.get_mut().set_load_pattern(&pat);
+    stat.iter_mut().for_each(|x| *x *= scale);
+    fc.load_distortion = stat;
     Ok(())
 }
 
@@ -1211,9 +1217,8 @@ impl<'a> Simulation<'a> {
             _ => None,
         };
         let casing_wave = st_c.as_ref().and_then(Structure::critical_wave_speed);
-        let ramp_end = case.load.as_ref().map_or(0.0, |l| l.ramp_time);
         let watch = (num.stop_on_runaway)
-            .then(|| RunawayWatch::new(casing_wave, &st_i, ramp_end))
+            .then(|| RunawayWatch::new(casing_wave, &st_i))
             .flatten();
         Ok(Self {
             summary: RunSummary {

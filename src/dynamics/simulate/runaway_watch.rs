@@ -1,7 +1,7 @@
 //! The runaway watch of the time loop (after box 6): on sample steps, the structures' energy
 //! and the drive work go to a [`RunawayMonitor`]; once the envelope has doubled, the largest
-//! radial harmonic of the casing's contact surface is followed
-//! ([`WaveTracker`]) so that a confirmed runaway names its wave.
+//! radial harmonic of the casing's contact surface (less the load's quasi-static distortion)
+//! is followed ([`WaveTracker`]) so that a confirmed runaway names its wave.
 
 use super::{Casing, FlexibleCasing, Simulation, node_disp};
 use crate::dynamics::runaway::{Runaway, RunawayMonitor, WaveTracker, sector_harmonic};
@@ -22,12 +22,8 @@ impl RunawayWatch {
     /// A watch whose envelope blocks last one period of the wave that can grow: the
     /// flexible casing's critical wave (`casing_wave`: its speed Ω_c in rad/s and nodal
     /// diameter k, frequency k Ω_c), else the impeller's slowest mode at the case's speed.
-    /// It starts at `start` (s), the end of the load's ramp. `None` when no period is known.
-    pub(super) fn new(
-        casing_wave: Option<(f64, usize)>,
-        impeller: &Structure,
-        start: f64,
-    ) -> Option<Self> {
+    /// `None` when no period is known.
+    pub(super) fn new(casing_wave: Option<(f64, usize)>, impeller: &Structure) -> Option<Self> {
         let omega = match casing_wave {
             Some((speed, k)) => speed * k as f64,
             None => (impeller.blocks.iter())
@@ -36,7 +32,7 @@ impl RunawayWatch {
                 .fold(f64::INFINITY, f64::min),
         };
         (omega.is_finite() && omega > 0.0).then(|| Self {
-            monitor: RunawayMonitor::new(TAU / omega, start),
+            monitor: RunawayMonitor::new(TAU / omega),
             wave: WaveTracker::default(),
             chosen_at_block: None,
             nd_energy: Vec::new(),
@@ -54,9 +50,11 @@ impl Simulation<'_> {
         let Some(mut watch) = self.watch.take() else {
             return;
         };
-        let growth = watch
-            .monitor
-            .observe(self.t1, self.sample_energy, self.drive_work);
+        let load = match self.case.load {
+            Some(_) => self.case.load_factor(self.t1),
+            None => 1.0,
+        };
+        let growth = (watch.monitor).observe(self.t1, self.sample_energy, self.drive_work, load);
         if growth.is_none() && watch.monitor.armed() {
             self.follow_wave(&mut watch);
         }
@@ -96,6 +94,11 @@ impl Simulation<'_> {
         };
         let kernel = f.kernel.get_mut();
         kernel.node_displacements(&mut f.nodes);
+        // The wave, not the load's distortion (which may still be ramping up).
+        let load = self.case.load_factor(self.t1);
+        for (u, d) in f.nodes.iter_mut().zip(&f.load_distortion) {
+            *u -= load * d;
+        }
         let closed = watch.monitor.closed_blocks();
         if watch.chosen_at_block != Some(closed) {
             // The wave a reader sees: the largest radial harmonic on the contact surface
