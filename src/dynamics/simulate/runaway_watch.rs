@@ -8,6 +8,10 @@ use crate::dynamics::runaway::{Runaway, RunawayMonitor, WaveTracker, sector_harm
 use crate::dynamics::structure::Structure;
 use std::f64::consts::TAU;
 
+/// Periods of the critical wave over which the growing wave's frequency is measured: the
+/// latest ones, where it dominates the load's release and the other waves.
+const WAVE_PERIODS: f64 = 3.0;
+
 /// What the watch keeps between sample steps.
 pub(super) struct RunawayWatch {
     monitor: RunawayMonitor,
@@ -33,7 +37,7 @@ impl RunawayWatch {
         };
         (omega.is_finite() && omega > 0.0).then(|| Self {
             monitor: RunawayMonitor::new(TAU / omega),
-            wave: WaveTracker::default(),
+            wave: WaveTracker::new(WAVE_PERIODS * TAU / omega),
             chosen_at_block: None,
             nd_energy: Vec::new(),
         })
