@@ -96,8 +96,7 @@ pub struct Numerics {
     #[serde(skip_serializing_if = "Boundary::is_mass")]
     pub boundary: Boundary,
     /// Whether a run stops as soon as a runaway is confirmed (default true): the structures'
-    /// energy growing exponentially, fed by the rotation, after the load's ramp
-    /// ([`crate::dynamics::runaway`]). The run then ends with its finding instead of growing
+    /// energy growing exponentially, fed by the rotation ([`crate::dynamics::runaway`]). The run then ends with its finding instead of growing
     /// until the contact solve gives up. Not written when true (job ids unchanged).
     #[serde(skip_serializing_if = "is_true")]
     pub stop_on_runaway: bool,

@@ -100,7 +100,7 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
     (
         "runaway_onset_s",
         "s",
-        "unstable: onset of the growth (lowest energy envelope before it)",
+        "unstable: onset of the growth (the energy envelope block it starts from)",
     ),
     (
         "runaway_detected_s",
