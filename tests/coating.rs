@@ -32,6 +32,7 @@ fn case(material: CoatingMaterial, eta: usize, clearance: [f64; 2], duration: f6
     let e = material.thickness;
     Case {
         omega: 1500.0,
+        rotation: Default::default(),
         duration,
         friction: 0.1,
         load: Some(LobeLoad {

@@ -56,6 +56,7 @@ fn run_with_modes(
         .map_or(vec![], |c| vec![-c.material.thickness; rows]);
     let case = Case {
         omega: OMEGA,
+        rotation: Default::default(),
         duration: 8e-3,
         friction: 0.15,
         load: Some(LobeLoad {

@@ -26,6 +26,7 @@ fn run(numerics: Numerics) -> SimulationOutput {
     let (imp, casing, _) = models();
     let case = Case {
         omega: OMEGA,
+        rotation: Default::default(),
         duration: 4e-3,
         friction: 0.1,
         load: Some(LobeLoad {

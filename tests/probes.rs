@@ -114,6 +114,7 @@ fn run(kernel: KernelChoice) -> SimulationOutput {
         .min(Structure::new(&cas, 0.0).unwrap().stability_limit());
     let case = Case {
         omega: OMEGA,
+        rotation: Default::default(),
         duration: 4e-3,
         friction: 0.1,
         load: Some(LobeLoad {

@@ -191,6 +191,7 @@ fn decimation_does_not_change_a_coated_flexible_casing_run() {
     let coating = CoatingCase::new(CoatingMaterial::nominal());
     let case = Case {
         omega: 3000.0,
+        rotation: Default::default(),
         duration: 3000.0 * h,
         friction: 0.15,
         // A two-lobe load held from the start, deep enough to cut through the 2 mm coating:
@@ -231,6 +232,7 @@ fn decimation_does_not_change_a_rigid_casing_run() {
     ));
     let case = Case {
         omega: 3000.0,
+        rotation: Default::default(),
         duration: 3000.0 * h,
         friction: 0.15,
         load: None,

@@ -109,6 +109,7 @@ pub fn coated_case(
 ) -> Case {
     Case {
         omega,
+        rotation: Default::default(),
         duration: steps as f64 * numerics.time_step.expect("benches set their step"),
         friction: 0.1,
         load,

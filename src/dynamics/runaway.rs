@@ -95,8 +95,8 @@ pub struct Runaway {
     /// strain energy at detection, without a flexible casing).
     pub nodal_diameter: Option<u32>,
     /// Frequency (Hz, fixed frame, ≥ 0) of the growing casing wave, from its phase rate on
-    /// the contact surface over the last three periods; `None` without a flexible casing or when too few samples were
-    /// tracked.
+    /// the contact surface over the last three periods; `None` without a flexible casing or
+    /// when too few samples were tracked.
     pub frequency_hz: Option<f64>,
     /// Whether the casing wave travels in the sense of rotation in the fixed frame; `None` as
     /// above. Above the critical wave speed the wave that grows is the casing's forward wave
@@ -316,8 +316,8 @@ fn line_fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
 /// Follows the phase of one casing harmonic on the contact surface: the complex amplitude
 /// `c_k(t) = Σ_s u_r(s) e^{−ikθ_s}` of nodal diameter k of one row's radial displacement
 /// (the simulation takes the external load's quasi-static distortion out first).
-/// A wave `u_r = A cos(kθ − ψ(t))` gives `c_k ∝ e^{−iψ}`: the wave travels toward +θ (with a
-/// counter-clockwise rotation, forward) when `ψ` grows, and its fixed-frame frequency is
+/// A wave `u_r = A cos(kθ − ψ(t))` gives `c_k ∝ e^{−iψ}`: the wave travels toward +θ
+/// (counter-clockwise about +z) when `ψ` grows, and its fixed-frame frequency is
 /// `|dψ/dt| / 2π`.
 #[derive(Debug, Clone, Default)]
 pub struct WaveTracker {

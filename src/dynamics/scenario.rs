@@ -121,12 +121,45 @@ pub struct InitialVelocity {
     pub casing: Option<Vec<f64>>,
 }
 
+/// The sense in which the impeller turns about its model's +z axis. Everything that depends
+/// on it follows from [`Case::angular_velocity`]: the rotating frame `R(ω_z t)`, the
+/// fixed-frame angle `θ = φ + ω_z t` of a blade node, the slip and friction directions, the
+/// drive's work and the forward/backward labels of waves. `K(Ω)` is even in Ω (centrifugal
+/// stiffening and spin softening), so the models' matrices do not depend on it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Rotation {
+    /// Counter-clockwise about +z (positive angular velocity), the default.
+    #[default]
+    Counterclockwise,
+    /// Clockwise about +z (negative angular velocity).
+    Clockwise,
+}
+
+impl Rotation {
+    /// +1 counter-clockwise, −1 clockwise: the sign of the angular velocity about +z.
+    pub fn sign(self) -> f64 {
+        match self {
+            Rotation::Counterclockwise => 1.0,
+            Rotation::Clockwise => -1.0,
+        }
+    }
+
+    /// Whether this is the default sense (not written to a spec, so job ids stay).
+    pub fn is_default(&self) -> bool {
+        *self == Rotation::Counterclockwise
+    }
+}
+
 /// One simulation case.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
-    /// Rotation speed Ω (rad/s), counter-clockwise about +z.
+    /// Rotation speed Ω ≥ 0 (rad/s), in the sense of `rotation`.
     pub omega: f64,
+    /// The sense of rotation about the models' +z axis.
+    #[serde(default, skip_serializing_if = "Rotation::is_default")]
+    pub rotation: Rotation,
     /// Simulated duration (s).
     pub duration: f64,
     /// Coulomb friction coefficient μ (sliding only).
@@ -253,6 +286,12 @@ impl CoatingCase {
 }
 
 impl Case {
+    /// The impeller's angular velocity ω_z = ±Ω (rad/s) about +z: the one place the sense of
+    /// rotation enters the dynamics.
+    pub fn angular_velocity(&self) -> f64 {
+        self.rotation.sign() * self.omega
+    }
+
     /// Amplitude factor of the casing load at time t: `t/t_f` on [0, t_f], 1 during the hold,
     /// then 0.
     pub fn load_factor(&self, t: f64) -> f64 {

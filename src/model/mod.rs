@@ -10,6 +10,7 @@ pub mod eigen;
 pub mod fe;
 pub(crate) mod hex20;
 pub mod mesh;
+mod mirror;
 pub(crate) mod recovery;
 #[cfg(test)]
 mod recovery_check;

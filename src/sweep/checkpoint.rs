@@ -181,6 +181,7 @@ mod tests {
             context: Arc::new(JobContext {
                 impeller: ModelSource::Builtin(Default::default()),
                 casing: CasingSource::Builtin(Default::default()),
+                rotation: Default::default(),
                 scenario: Scenario {
                     duration_s: 1.0,
                     lobes: None,

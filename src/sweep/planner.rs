@@ -20,6 +20,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use crate::dynamics::scenario::Rotation;
 use crate::io::content_hash::content_hash;
 
 use super::spec::{
@@ -93,6 +94,9 @@ pub struct JobContext {
     pub impeller: ModelSource,
     /// Casing model.
     pub casing: CasingSource,
+    /// The sense of rotation (not written when counter-clockwise: job ids unchanged).
+    #[serde(default, skip_serializing_if = "Rotation::is_default")]
+    pub rotation: Rotation,
     /// Scenario.
     pub scenario: Scenario,
     /// Numerics.
@@ -237,6 +241,7 @@ pub fn plan(spec: &SweepSpec) -> Result<Plan, SpecError> {
     let context = Arc::new(JobContext {
         impeller: spec.models.impeller.clone(),
         casing: spec.models.casing.clone(),
+        rotation: spec.models.rotation,
         scenario: spec.scenario.clone(),
         numerics: spec.numerics.clone(),
     });

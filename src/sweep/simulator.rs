@@ -429,6 +429,7 @@ impl ModelSimulator {
         };
         let case = Case {
             omega: p.speed_rad_s,
+            rotation: ctx.rotation,
             duration,
             friction: p.friction,
             load,

@@ -22,6 +22,7 @@ use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::numerics::Boundary;
 pub use crate::dynamics::numerics::{KernelChoice, Numerics};
 pub use crate::dynamics::probes::ProbeSpec;
+use crate::dynamics::scenario::Rotation;
 use crate::model::build::{CasingSpec, ImpellerSpec};
 pub use crate::sweep::refine::{MIN_REFINE_TOLERANCE, RefineSpec};
 pub use crate::sweep::schema::{SWEEP_SCHEMA, SpecError, SpecIssue, validate_against_schema};
@@ -84,6 +85,12 @@ pub struct Models {
     pub impeller: ModelSource,
     /// Casing model.
     pub casing: CasingSource,
+    /// The sense in which the impeller turns about the models' +z axis (default
+    /// counter-clockwise). An imported model turns as it is given; the built-in models are
+    /// mirrored (y → −y) to turn clockwise, so that their blade lean trails as it does
+    /// counter-clockwise.
+    #[serde(default, skip_serializing_if = "Rotation::is_default")]
+    pub rotation: Rotation,
 }
 
 /// Where the impeller model comes from.
@@ -1675,6 +1682,7 @@ mod tests {
             models: Models {
                 impeller: ModelSource::Builtin(Box::new(impeller.clone())),
                 casing: CasingSource::Builtin(Box::new(casing.clone())),
+                rotation: Rotation::Clockwise,
             },
             scenario: Scenario {
                 duration_s: 0.1,

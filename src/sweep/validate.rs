@@ -14,6 +14,7 @@
 
 use crate::contact::{GapDirection, ImposedGap};
 use crate::dynamics::probes::resolve_probes;
+use crate::dynamics::scenario::Rotation;
 use crate::dynamics::structure::{Structure, StructureError};
 use crate::io::{model_cache, rom_file};
 use crate::model::rom::{Component, CyclicRom};
@@ -113,9 +114,15 @@ fn of_kind(rom: CyclicRom, kind: Component, path: &Path) -> Result<CyclicRom, St
 pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
     spec.validate()?;
     let mut issues = Vec::new();
+    // The built-in machine turning clockwise is the mirror image of the counter-clockwise one
+    // (its blades lean the same way against the rotation); an imported model turns as given.
+    let turned = |rom: CyclicRom| match spec.models.rotation {
+        Rotation::Counterclockwise => rom,
+        Rotation::Clockwise => rom.mirrored(),
+    };
     let impeller = match &spec.models.impeller {
         ModelSource::Builtin(b) => model_cache::impeller_rom(b)
-            .map(|rom| (rom, Some(b.geometry.tip_clearance)))
+            .map(|rom| (turned(rom), Some(b.geometry.tip_clearance)))
             .map_err(|e| issue("/models/impeller/builtin", causes(e.as_ref()))),
         ModelSource::Rom(p) => rom_file::load(p)
             .map_err(|e| causes(&e))
@@ -125,7 +132,7 @@ pub fn resolve(spec: &SweepSpec) -> Result<ResolvedSweep, SpecError> {
     };
     let casing = match &spec.models.casing {
         CasingSource::Builtin(b) => model_cache::casing_rom(b)
-            .map(ResolvedCasing::Flexible)
+            .map(|rom| ResolvedCasing::Flexible(turned(rom)))
             .map_err(|e| issue("/models/casing/builtin", causes(e.as_ref()))),
         CasingSource::Rom(p) => rom_file::load(p)
             .map_err(|e| causes(&e))

@@ -698,8 +698,11 @@ fn check_stability(
     let num = &case.numerics;
     num.validate().map_err(SimError::InvalidCase)?;
     let bad = |m: String| Err(SimError::InvalidCase(m));
-    if !case.omega.is_finite() {
-        return bad(format!("omega = {} rad/s must be finite", case.omega));
+    if !(case.omega.is_finite() && case.omega >= 0.0) {
+        return bad(format!(
+            "omega = {} rad/s must be finite and ≥ 0 (its sense is `rotation`)",
+            case.omega
+        ));
     }
     if !(case.duration.is_finite() && case.duration > 0.0) {
         return bad(format!("duration = {} s must be > 0", case.duration));
@@ -1160,7 +1163,8 @@ impl<'a> Simulation<'a> {
                     .zip(&impeller.contact_nodes)
                     .map(|(x, c)| x - Vector3::from(c.position))
                     .collect();
-                let imposed = ImposedCasing::new(g, impeller, &offsets, &blades.rot, case.omega);
+                let imposed =
+                    ImposedCasing::new(g, impeller, &offsets, &blades.rot, case.angular_velocity());
                 Casing::Imposed(
                     imposed
                         .map_err(|e| SimError::InvalidCase(format!("imposed-gap casing: {e}")))?,
@@ -1361,7 +1365,7 @@ impl<'a> Simulation<'a> {
         let t_n = self.steps_done as f64 * h;
         // The same expression as the next step's t_n (the fused predictor checks its amplitude).
         self.t1 = (self.steps_done + 1) as f64 * h;
-        self.r_om = rot_z(self.case.omega * self.t1);
+        self.r_om = rot_z(self.case.angular_velocity() * self.t1);
         self.sample_step = (self.steps_done + 1).is_multiple_of(self.case.numerics.decimation);
         self.blades.kernel.get_mut().predict(0.0);
         if let Some(f) = self.casing.flexible_mut() {
@@ -1441,7 +1445,7 @@ impl<'a> Simulation<'a> {
         if !any {
             return Ok(());
         }
-        self.drive_work -= self.case.omega * cs.torque * self.summary.time_step;
+        self.drive_work -= self.case.angular_velocity() * cs.torque * self.summary.time_step;
         // Fused with the next predictors, as the Lagrange correction is (box 5): most coating
         // steps have no Lagrange contact, and their next `predict` then only swaps in the
         // predictor formed here. A Lagrange correction that follows forms it again from the
@@ -1727,7 +1731,7 @@ impl<'a> Simulation<'a> {
                 c.force_t[cd.blade] += mu * l;
             }
         }
-        self.drive_work -= self.case.omega * torque * self.summary.time_step;
+        self.drive_work -= self.case.angular_velocity() * torque * self.summary.time_step;
         // The impeller carries no load pattern: its next predictor has amplitude 0.
         self.blades
             .kernel

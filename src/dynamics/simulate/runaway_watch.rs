@@ -66,10 +66,12 @@ impl Simulation<'_> {
         // sample could restart its phase).
         if let Some(g) = growth {
             let (nodal_diameter, rate) = self.growing_wave(&mut watch);
-            // ψ̇ − kΩ: the phase rate seen from the rotating frame.
+            // ψ̇ − k ω_z: the phase rate seen from the rotating frame; both signed about +z,
+            // then taken in the sense of rotation.
+            let sense = self.case.rotation.sign();
             let relative = rate
                 .zip(nodal_diameter)
-                .map(|(r, k)| r - k as f64 * self.case.omega);
+                .map(|(r, k)| sense * (r - k as f64 * self.case.angular_velocity()));
             self.runaway = Some(Runaway {
                 onset_time_s: g.onset_time_s,
                 detected_time_s: g.detected_time_s,
@@ -79,7 +81,7 @@ impl Simulation<'_> {
                 drive_work_j: g.drive_work_j,
                 nodal_diameter,
                 frequency_hz: rate.map(|r| r.abs() / TAU),
-                forward: rate.map(|r| r > 0.0),
+                forward: rate.map(|r| sense * r > 0.0),
                 rotating_frame_frequency_hz: relative.map(|r| r / TAU),
             });
         }

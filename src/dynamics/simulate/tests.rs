@@ -97,6 +97,7 @@ fn stable_h(imp: &CyclicRom, cas: &CyclicRom, omega: f64) -> f64 {
 fn lobe_case(h: f64, mu: f64, kernel: KernelChoice, eps: f64) -> Case {
     Case {
         omega: 1500.0,
+        rotation: Default::default(),
         duration: 6e-3,
         friction: mu,
         load: Some(LobeLoad {
@@ -244,6 +245,7 @@ fn thrown_case(
 ) -> Case {
     Case {
         omega: 0.0,
+        rotation: Default::default(),
         duration,
         friction: 0.0,
         load: None,
@@ -551,6 +553,7 @@ fn single_oscillator_against_an_imposed_gap_matches_the_analytic_solution() {
     let h = 2e-3 / w;
     let case = Case {
         omega,
+        rotation: Default::default(),
         duration: 2.0 * PI / omega,
         friction: 0.0,
         load: None,
