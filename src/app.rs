@@ -633,7 +633,7 @@ pub fn stability(spec_path: &Path, args: &StabilityArgs) -> Result<String, AppEr
     let resolved = load_resolved(spec_path)?;
     let jobs = plan(&resolved.spec)?.jobs;
     let sim = ModelSimulator::from_resolved(resolved)?;
-    let casing = (sim.casing_rom())
+    let (impeller, casing) = (sim.counterclockwise_models())
         .ok_or_else(|| anyhow!("the stability prediction needs a flexible casing model"))?;
     let grid =
         |f: fn(f64, f64) -> f64, init| jobs.iter().map(|j| j.params.speed_rad_s).fold(init, f);
@@ -673,7 +673,7 @@ pub fn stability(spec_path: &Path, args: &StabilityArgs) -> Result<String, AppEr
         let _ = writeln!(s, "interaction criterion Ω*_{n} = {w:.1} rad/s");
     }
     for &mu in &frictions {
-        let p = Predictor::new(sim.impeller(), casing, &StabilityOptions::with_friction(mu))
+        let p = Predictor::new(&impeller, &casing, &StabilityOptions::with_friction(mu))
             .map_err(anyhow::Error::from)?;
         let at: Vec<_> = (omegas
             .par_iter()

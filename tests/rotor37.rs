@@ -690,30 +690,39 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
 
 /// The public rubbing benchmark on this blade (`sweeps/rotor37_benchmark.json`: Ω = 1344 rad/s,
 /// μ = 0.15, 50 revolutions from rest against two Gaussian gap lobes, the PLAUSIBLE
-/// configuration of the NLstep example), run by `rubscan simulate` on the freshly imported ROM.
-/// Its figures are printed for comparison with the external reference runs; the test checks
-/// what the physics fixes: the contact closes on part of the steps only, the gap of tip node 188
-/// follows the casing's two lobes (engine order 2), and the contact is solved exactly (residual
-/// penetration ≤ 1e-8 of the vibration level on every step).
+/// configuration of the NLstep example, the blade turning clockwise as the benchmark's friction
+/// turns it; and its counter-clockwise twin `rotor37_benchmark_ccw.json`), run by
+/// `rubscan simulate` on the freshly imported ROM. Its figures are printed for comparison with
+/// the external reference runs; the test checks what the physics fixes: the contact closes on
+/// part of the steps only, and is solved exactly (residual penetration ≤ 1e-8 of the vibration
+/// level on every step); counter-clockwise, the gap of tip node 188 follows the casing's two
+/// lobes (engine order 2; clockwise the blade's own engine-order-4 response dominates it).
 #[test]
 fn rotor37_benchmark_runs_and_reports_its_figures() {
     let Some(imp) = imported() else { return };
     let (guard, rom_path) = saved_rom(imp, "bench");
     let work = guard.0.clone();
-    // The paper's formulation as the README runs it, then the massless boundary at 1000
-    // steps per revolution (NLstep's resolution), against it.
-    let mass = run_benchmark(&rom_path, &work.join("mass"), None);
+    for sweep in ["rotor37_benchmark", "rotor37_benchmark_ccw"] {
+        benchmark_in_both_formulations(&rom_path, &work.join(sweep), sweep);
+    }
+}
+
+/// Runs `sweeps/<sweep>.json` in the paper's formulation as the README runs it, then with the
+/// massless boundary at 1000 steps per revolution (NLstep's resolution), and checks them
+/// against each other (see the test above).
+fn benchmark_in_both_formulations(rom_path: &Path, work: &Path, sweep: &str) {
+    let mass = run_benchmark(rom_path, &work.join("mass"), None, sweep);
     let h = 2.0 * std::f64::consts::PI / (1344.0 * 1000.0);
-    let massless = run_benchmark(&rom_path, &work.join("massless"), Some(h));
+    let massless = run_benchmark(rom_path, &work.join("massless"), Some(h), sweep);
     for f in [&mass, &massless] {
         assert!(
             f.closed > 0.0 && f.closed < 1.0,
-            "closed-contact fraction {}",
+            "{sweep}: closed-contact fraction {}",
             f.closed
         );
         assert!(
-            (f.gap_order - 2.0).abs() < 0.05,
-            "gap of node 188 at engine order {}",
+            sweep != "rotor37_benchmark_ccw" || (f.gap_order - 2.0).abs() < 0.05,
+            "{sweep}: gap of node 188 at engine order {}",
             f.gap_order
         );
         assert!(f.level > 0.0);
@@ -726,9 +735,26 @@ fn rotor37_benchmark_runs_and_reports_its_figures() {
         assert_eq!(f.over_tolerance, 0, "steps above the gap tolerance");
     }
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
-    assert!(rel(massless.peak_to_peak, mass.peak_to_peak) <= 0.05);
-    assert!(rel(massless.level, mass.level) <= 0.05);
-    assert!((massless.y_order - mass.y_order).abs() < 0.05);
+    let agree = |a: &BenchmarkFigures, b: &BenchmarkFigures, tol: f64| {
+        rel(a.peak_to_peak, b.peak_to_peak) <= tol
+            && rel(a.level, b.level) <= tol
+            && (a.y_order - b.y_order).abs() < 0.05
+    };
+    if sweep == "rotor37_benchmark_ccw" {
+        assert!(
+            agree(&massless, &mass, 0.05),
+            "{sweep}: massless against mass"
+        );
+    } else {
+        // Clockwise the two formulations differ by 7 % on node 1353's peak-to-peak, and the
+        // mass formulation moves by as much when its step is halved (issue 38, open): what
+        // holds is the massless boundary converged in its step.
+        let finer = run_benchmark(rom_path, &work.join("massless2"), Some(0.5 * h), sweep);
+        assert!(
+            agree(&massless, &finer, 0.02),
+            "{sweep}: massless, h against h/2"
+        );
+    }
 }
 
 /// `rubscan simulate` gives the benchmark's figures bit for bit whatever faer's parallelism
@@ -738,7 +764,7 @@ fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
     let Some(imp) = imported() else { return };
     let (guard, rom_path) = saved_rom(imp, "threads");
     let work = guard.0.clone();
-    let mut spec = benchmark_spec(&rom_path);
+    let mut spec = benchmark_spec(&rom_path, "rotor37_benchmark");
     spec["scenario"]["duration_s"] = serde_json::json!(6.0 * 2.0 * std::f64::consts::PI / 1344.0);
     spec["scenario"]["revolution_report"] =
         serde_json::json!({"peak_to_peak_revolutions": 2, "mean_revolutions": 4});
@@ -766,10 +792,10 @@ fn saved_rom(imp: &Imported, tag: &str) -> (Scratch, PathBuf) {
     (Scratch(work), rom_path)
 }
 
-/// `sweeps/rotor37_benchmark.json` on the ROM at `rom_path`.
-fn benchmark_spec(rom_path: &Path) -> serde_json::Value {
+/// `sweeps/<sweep>.json` on the ROM at `rom_path`.
+fn benchmark_spec(rom_path: &Path, sweep: &str) -> serde_json::Value {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(root.join("sweeps/rotor37_benchmark.json")).unwrap();
+    let text = std::fs::read_to_string(root.join(format!("sweeps/{sweep}.json"))).unwrap();
     let mut spec: serde_json::Value = serde_json::from_str(&text).unwrap();
     spec["models"]["impeller"]["rom"] = serde_json::json!(rom_path);
     spec
@@ -786,10 +812,15 @@ struct BenchmarkFigures {
     over_tolerance: u64,
 }
 
-/// Runs `sweeps/rotor37_benchmark.json` on the ROM at `rom_path` into `out`, with a massless
-/// boundary at step `massless_h` (s) when given; prints and returns its figures.
-fn run_benchmark(rom_path: &Path, out: &Path, massless_h: Option<f64>) -> BenchmarkFigures {
-    let mut spec = benchmark_spec(rom_path);
+/// Runs `sweeps/<sweep>.json` on the ROM at `rom_path` into `out`, with a massless boundary
+/// at step `massless_h` (s) when given; prints and returns its figures.
+fn run_benchmark(
+    rom_path: &Path,
+    out: &Path,
+    massless_h: Option<f64>,
+    sweep: &str,
+) -> BenchmarkFigures {
+    let mut spec = benchmark_spec(rom_path, sweep);
     if let Some(h) = massless_h {
         spec["numerics"] =
             serde_json::json!({"time_step_s": h, "decimation": 1, "boundary": "massless"});
@@ -826,7 +857,7 @@ fn run_benchmark(rom_path: &Path, out: &Path, massless_h: Option<f64>) -> Benchm
         over_tolerance: summary["steps_over_gap_tolerance"].as_u64().unwrap(),
     };
     eprintln!(
-        "Rotor 37 benchmark, {} boundary ({} steps, {:.0} steps/rev, loop {:.2} s single thread, wall {wall:.1?}):\n  \
+        "Rotor 37 benchmark {sweep}, {} boundary ({} steps, {:.0} steps/rev, loop {:.2} s single thread, wall {wall:.1?}):\n  \
          node 1353 y: peak-to-peak over the last 5 revolutions {:.4e} m, mean over the last 20 \
          {:.4e} m, dominant {:.2} Hz = engine order {:.3}\n  node 188: max normal force {:.4e} N, \
          min gap {:.4e} m\n  steps with a closed contact: {:.4}; largest residual penetration {:.3e} m \

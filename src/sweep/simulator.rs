@@ -3,6 +3,7 @@
 //! the steady window, strain energy per nodal diameter, in bounded memory) and adds the
 //! nearest critical speed of the linear interaction criterion.
 
+use std::borrow::Cow;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
@@ -13,7 +14,7 @@ use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
 use crate::analysis::stability::{self, StabilityOptions};
 use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::recorder::{RecordError, Recorder, Sample};
-use crate::dynamics::scenario::CoatingCase;
+use crate::dynamics::scenario::{CoatingCase, Rotation};
 use crate::dynamics::structure::Structure;
 use crate::dynamics::{
     Case, CasingModel, LobeLoad, RigidShape, RigidSurface, SimError, Simulation,
@@ -75,6 +76,8 @@ pub struct ModelSimulator {
     timeseries_dir: Option<PathBuf>,
     /// Wall-clock limit of each job (s), `SweepSpec::job_time_limit_s`.
     job_time_limit_s: Option<f64>,
+    /// The sense of rotation of the sweep.
+    rotation: Rotation,
 }
 
 /// Stops a simulation whose wall-clock time passes a limit: a recorder that fails the
@@ -257,6 +260,7 @@ impl ModelSimulator {
             criticals,
             timeseries_dir: None,
             job_time_limit_s: spec.job_time_limit_s,
+            rotation: spec.models.rotation,
         })
     }
 
@@ -272,6 +276,21 @@ impl ModelSimulator {
     /// Critical speeds found by the linear interaction criterion (rad/s, nodal diameter, compatibility).
     pub fn critical_speeds(&self) -> &[CriticalSpeed] {
         &self.criticals
+    }
+
+    /// The impeller and the flexible casing (`None` for a rigid casing) as a machine turning
+    /// counter-clockwise, which the linear predictions assume: the models themselves, or
+    /// their mirror images when the sweep turns clockwise (a machine turning clockwise is the
+    /// mirror image of one turning counter-clockwise).
+    pub fn counterclockwise_models(&self) -> Option<(Cow<'_, CyclicRom>, Cow<'_, CyclicRom>)> {
+        let casing = self.casing_rom()?;
+        Some(match self.rotation {
+            Rotation::Counterclockwise => (Cow::Borrowed(&self.impeller), Cow::Borrowed(casing)),
+            Rotation::Clockwise => (
+                Cow::Owned(self.impeller.mirrored()),
+                Cow::Owned(casing.mirrored()),
+            ),
+        })
     }
 
     /// The flexible casing ROM of the sweep (`None` for a rigid casing).
@@ -542,12 +561,12 @@ impl ModelSimulator {
         omega: f64,
         mu: f64,
     ) -> Result<Option<PredictedStability>, String> {
-        let ResolvedCasing::Flexible(casing) = &self.casing else {
+        let Some((impeller, casing)) = self.counterclockwise_models() else {
             return Ok(None);
         };
         let at = stability::predict(
-            &self.impeller,
-            casing,
+            &impeller,
+            &casing,
             omega,
             &StabilityOptions::with_friction(mu),
         )
