@@ -22,9 +22,17 @@ fn spec(rotation: &str, coated: bool, blade: usize, probe_sectors: [usize; 2]) -
     v["scenario"]["duration_s"] = 2.5e-3.into();
     v["scenario"]["load_ramp_s"] = 1e-3.into();
     v["scenario"]["casing_probes"] = json!([[probe_sectors[0], 4], [probe_sectors[1], 2]]);
-    v["scenario"]["probes"] = json!(["radial", "tangential", "axial"].map(|c| json!({
-        "blade": blade, "row": 4, "quantity": "displacement", "component": c
-    })));
+    let mut probes = ["radial", "tangential", "axial"]
+        .map(|c| {
+            json!({
+                "blade": blade, "row": 4, "quantity": "displacement", "component": c
+            })
+        })
+        .to_vec();
+    // A recovered interior node (the ROM's recovery rows).
+    probes.push(json!({ "point": "leading_edge_mid_span", "blade": blade,
+        "quantity": "displacement", "component": "tangential" }));
+    v["scenario"]["probes"] = json!(probes);
     if coated {
         v["scenario"]["coating"] = json!({});
     }
@@ -83,12 +91,14 @@ fn assert_mirrored(ccw: &SimulationOutput, cw: &SimulationOutput, n: usize, labe
     for (p, (a, b)) in ccw.casing_radial.iter().zip(&cw.casing_radial).enumerate() {
         worst.push((format!("casing probe {p} radial"), mismatch(a, b, 1.0)));
     }
-    for (p, sign) in [(0, 1.0), (1, -1.0), (2, 1.0)] {
-        let name = ["radial", "tangential", "axial"][p];
-        worst.push((
-            format!("tip {name}"),
-            mismatch(&ccw.probes[p], &cw.probes[p], sign),
-        ));
+    for (p, sign) in [(0, 1.0), (1, -1.0), (2, 1.0), (3, -1.0)] {
+        let name = [
+            "tip radial",
+            "tip tangential",
+            "tip axial",
+            "mid-span LE tangential",
+        ][p];
+        worst.push((name.into(), mismatch(&ccw.probes[p], &cw.probes[p], sign)));
     }
     worst.push((
         "drive work".into(),

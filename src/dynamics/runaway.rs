@@ -16,9 +16,9 @@
 //! the load grows and only an instability makes it grow by decades. It is watched once the
 //! load has reached half its amplitude (`r ≥ ½`, a factor of at most 4) because the fastest
 //! runaways (well above the critical wave speed) have grown by decades, and broken the
-//! contact solve, before the load's ramp ends. That energy is
-//! reduced to its envelope: the largest sample of each block of one period `T_w` of the wave
-//! that can grow (the casing's critical wave, else the impeller's slowest mode). The growth
+//! contact solve, before the load's ramp ends. That energy is reduced to its envelope: the
+//! largest sample of each block of one period `T_w` of the wave that can grow (the casing's
+//! critical wave, else the impeller's slowest mode). The growth
 //! may start from any block lower than every later one (a candidate onset: the response can
 //! settle on a plateau or dip before it runs away); a runaway is confirmed when, over the
 //! blocks from one candidate onset to the last,
@@ -195,11 +195,7 @@ impl RunawayMonitor {
         })?;
         self.push(done);
         self.closed += 1;
-        let growth = self.confirmed()?;
-        Some(Growth {
-            detected_time_s: t,
-            ..growth
-        })
+        self.confirmed(t)
     }
 
     /// Whether the envelope has grown by [`ARM_GROWTH`] since its lowest block: a candidate
@@ -235,7 +231,7 @@ impl RunawayMonitor {
     /// The growth when the blocks from a candidate onset (a block lower than every later
     /// one) to the last pass every test of the criterion; of several such onsets, the one
     /// whose window fits an exponential best.
-    fn confirmed(&self) -> Option<Growth> {
+    fn confirmed(&self, t: f64) -> Option<Growth> {
         let hi = self.blocks.back()?;
         // Candidate onsets, latest first, with whether no later block exceeds the last.
         let mut onsets = Vec::new();
@@ -249,13 +245,13 @@ impl RunawayMonitor {
         }
         (onsets.into_iter())
             .filter(|&(_, last_largest)| last_largest)
-            .filter_map(|(j, _)| self.growth_from(j))
+            .filter_map(|(j, _)| self.growth_from(j, t))
             .max_by(|a, b| a.fit_r2.total_cmp(&b.fit_r2))
     }
 
-    /// The growth over the blocks from `onset` to the last when they pass tests 1–5 (the
-    /// last block being known to be their largest).
-    fn growth_from(&self, onset: usize) -> Option<Growth> {
+    /// The growth over the blocks from `onset` to the last, confirmed at time `t` (s), when
+    /// they pass tests 1–5 (the last block being known to be their largest).
+    fn growth_from(&self, onset: usize, t: f64) -> Option<Growth> {
         let (lo, hi) = (&self.blocks[onset], self.blocks.back()?);
         let (periods, growth) = (self.blocks.len() - onset - 1, hi.energy / lo.energy);
         let long_enough = |min_periods, min_growth| periods >= min_periods && growth >= min_growth;
@@ -281,7 +277,7 @@ impl RunawayMonitor {
         }
         Some(Growth {
             onset_time_s: lo.time,
-            detected_time_s: hi.time + 0.5 * self.period,
+            detected_time_s: t,
             energy_rate_per_s: slope,
             fit_r2: r2,
             energy_growth: growth,

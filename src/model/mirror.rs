@@ -11,7 +11,7 @@
 //! `D_b conj(C_k) D_b`, `D_b` negating the boundary DOFs' y entries and leaving the modal
 //! coordinates.
 
-use super::rom::{ComplexRows, CyclicRom, HermitianMatrix};
+use super::rom::CyclicRom;
 use nalgebra::{DMatrix, DVector};
 
 impl CyclicRom {
@@ -31,8 +31,9 @@ impl CyclicRom {
         let nb = self.n_boundary();
         for h in &mut m.harmonics {
             let d = boundary_reflection(nb, h.mass.re.nrows());
-            mirror_hermitian(&mut h.mass, &d);
-            h.stiffness.iter_mut().for_each(|k| mirror_hermitian(k, &d));
+            for c in std::iter::once(&mut h.mass).chain(&mut h.stiffness) {
+                conjugate_reflected(&mut c.re, &mut c.im, &d, &d);
+            }
         }
         for md in &mut m.modal_data {
             let d = boundary_reflection(nb, nb);
@@ -51,7 +52,7 @@ impl CyclicRom {
                 boundary_reflection(nr, nr),
                 boundary_reflection(nb, rows.re.ncols()),
             );
-            mirror_rows(rows, &dr, &db);
+            conjugate_reflected(&mut rows.re, &mut rows.im, &dr, &db);
         }
         m
     }
@@ -69,20 +70,18 @@ fn boundary_reflection(n_physical: usize, n: usize) -> DVector<f64> {
     })
 }
 
-/// `C ← D conj(C) D` for a Hermitian `C = re + i im` and a diagonal ±1 `D`.
-fn mirror_hermitian(c: &mut HermitianMatrix, d: &DVector<f64>) {
-    let dd = DMatrix::from_fn(d.len(), d.len(), |i, j| d[i] * d[j]);
-    c.re.component_mul_assign(&dd);
-    c.im.component_mul_assign(&dd);
-    c.im.neg_mut();
-}
-
-/// `R ← D_r conj(R) D_b` for diagonal ±1 `D_r` (rows) and `D_b` (columns).
-fn mirror_rows(r: &mut ComplexRows, dr: &DVector<f64>, db: &DVector<f64>) {
-    let dd = DMatrix::from_fn(dr.len(), db.len(), |i, j| dr[i] * db[j]);
-    r.re.component_mul_assign(&dd);
-    r.im.component_mul_assign(&dd);
-    r.im.neg_mut();
+/// `C ← D_r conj(C) D_c` for a complex matrix `C = re + i im` and diagonal ±1 matrices `D_r`
+/// (rows) and `D_c` (columns).
+fn conjugate_reflected(
+    re: &mut DMatrix<f64>,
+    im: &mut DMatrix<f64>,
+    rows: &DVector<f64>,
+    cols: &DVector<f64>,
+) {
+    let signs = DMatrix::from_fn(rows.len(), cols.len(), |i, j| rows[i] * cols[j]);
+    re.component_mul_assign(&signs);
+    im.component_mul_assign(&signs);
+    im.neg_mut();
 }
 
 #[cfg(test)]
