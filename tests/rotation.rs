@@ -154,4 +154,14 @@ fn the_built_in_machine_turned_clockwise_gives_the_mirrored_response() {
     let ccw = run(&imposed_gap("counterclockwise", 1));
     let cw = run(&imposed_gap("clockwise", n - 1));
     assert_mirrored(&ccw, &cw, n, "built-in impeller, imposed gap");
+    // The massless boundary's own contact and friction solve (box 4 solved implicitly).
+    let massless = |mut v: Value| {
+        v["numerics"]["boundary"] = "massless".into();
+        v
+    };
+    for coated in [false, true] {
+        let ccw = run(&massless(spec("counterclockwise", coated, 1, [0, 10])));
+        let cw = run(&massless(spec("clockwise", coated, n - 1, [0, nc - 10])));
+        assert_mirrored(&ccw, &cw, n, &format!("massless, coated {coated}"));
+    }
 }
