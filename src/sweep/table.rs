@@ -996,43 +996,10 @@ mod tests {
     #[test]
     fn peak_quantities_are_the_tables_numeric_result_columns() {
         use crate::sweep::refine::{OTHER_COLUMNS, PEAK_QUANTITIES, quantity_of};
-        use crate::sweep::{CriticalSpeed, JobResult, Maxima, Spectrum};
         use arrow_array::Array;
-        let result = JobResult {
-            maxima: Maxima {
-                blade_le_radial_m: 1e-4,
-                blade_te_radial_m: 2e-4,
-                casing_radial_m: 3e-4,
-                contact_normal_force_n: 12.5,
-                coating_force_n: 0.5,
-            },
-            residual_penetration_m: 1e-13,
-            steps_over_gap_tolerance: Some(3),
-            critical_speed: Some(CriticalSpeed {
-                speed_rad_s: 6891.0,
-                nodal_diameter: 5,
-                compatibility: 0.135,
-            }),
-            spectrum: Some(Spectrum {
-                df_hz: 83.3,
-                amplitude_m: vec![1.0],
-            }),
-            ..JobResult::default()
-        };
-        let record = JobRecord {
-            format_version: crate::sweep::checkpoint::JOB_RECORD_VERSION,
-            id: "a".into(),
-            params: JobParams {
-                speed_rad_s: 1.0,
-                friction: 0.1,
-                clearance_m: None,
-                coating: Default::default(),
-            },
-            status: JobStatus::Ok,
-            result: Some(result.clone()),
-            wall_time_s: 1.0,
-            refinement_round: 0,
-        };
+        // The record whose result has every field set.
+        let (_, record) = sample_records().swap_remove(0);
+        let result = record.result.clone().unwrap();
         let batch = results_batch(&[(0, record)]).unwrap();
         for &name in PEAK_QUANTITIES {
             let col = batch

@@ -23,10 +23,10 @@ use crate::dynamics::kernel::StructureKernel;
 use crate::dynamics::modal::ModalKernel;
 use crate::dynamics::numerics::{Boundary, KernelChoice, STEPS_PER_PERIOD, STEPS_PER_REVOLUTION};
 use crate::dynamics::probes::{
-    CoatingOutput, Probe, ProbeQuantity, ProbeTarget, RecoveryEval, RunSummary, SimulationOutput,
-    Stage, StageClock, resolve_probes,
+    CoatingOutput, Probe, ProbeTarget, RecoveryEval, RunSummary, SimulationOutput, Stage,
+    StageClock, resolve_probes,
 };
-use crate::dynamics::recorder::{CoatingSample, RecordError, Recorder, Sample, SeriesRecorder};
+use crate::dynamics::recorder::{RecordError, Recorder, SeriesRecorder};
 use crate::dynamics::runaway::Runaway;
 use crate::dynamics::scenario::{Case, CasingModel, CoatingCase};
 use crate::dynamics::structure::{Structure, StructureError};
@@ -1950,185 +1950,6 @@ impl<'a> Simulation<'a> {
         self.steps_done += 1;
         Ok(())
     }
-
-    /// Box 6: on sample steps, the probes of the new state, handed to `recorder`.
-    fn record(&mut self, recorder: &mut dyn Recorder) -> Result<(), SimError> {
-        if !self.sample_step {
-            self.clock.lap(Stage::Other);
-            return Ok(());
-        }
-        let b = &self.blades;
-        for s in 0..b.n_blades {
-            self.le[s] = b.radial_displacement(s, b.le);
-            self.te[s] = b.radial_displacement(s, b.te);
-        }
-        let mut casing_energy = None;
-        if let Some(cs) = self.casing.surface_mut()
-            && let Some(f) = cs.flexible.as_mut()
-        {
-            let k = f.kernel.get_mut();
-            if !self.case.casing_probes.is_empty() {
-                k.node_displacements(&mut f.nodes);
-            }
-            let nbc = 3 * cs.rows;
-            for (x, p) in self.casing_radial.iter_mut().zip(&self.case.casing_probes) {
-                *x = f.radial[p[1]].dot(&node_disp(&f.nodes, p[0], nbc, p[1]));
-            }
-            casing_energy = Some(k.energies());
-        }
-        self.probe_values()?;
-        let b = &self.blades;
-        let ki = b.kernel.get();
-        ki.nd_strain_energy(&mut self.nd_energy);
-        let impeller_energy = ki.energies();
-        self.sample_energy = impeller_energy.total() + casing_energy.map_or(0.0, |e| e.total());
-        let sample = Sample {
-            time: self.t1,
-            blade_le_radial: &self.le,
-            blade_te_radial: &self.te,
-            casing_radial: &self.casing_radial,
-            blade_normal_force: &self.contact.force_n,
-            blade_tangential_force: &self.contact.force_t,
-            min_gap: self.min_gap,
-            residual_penetration: self.residual,
-            drive_work: self.drive_work,
-            impeller_energy,
-            casing_energy,
-            impeller_nd_strain_energy: &self.nd_energy,
-            coating: self.coating.as_ref().map(|c| CoatingSample {
-                max_wear: &c.max_wear_row,
-                blade_force: &c.blade_force,
-            }),
-            probe_columns: &self.probes,
-            probes: &self.probe_values,
-        };
-        recorder.record(&sample).map_err(SimError::Record)?;
-        self.clock.lap(Stage::Other);
-        Ok(())
-    }
-
-    /// The values of the case's probes at the sample step (reads the state, never writes it).
-    fn probe_values(&mut self) -> Result<(), SimError> {
-        if self.probes.is_empty() {
-            return Ok(());
-        }
-        let b = &self.blades;
-        if let Some((_, _, x)) = self.recovery.as_mut() {
-            b.kernel.get().harmonic_state(x);
-        }
-        if let (Some((_, _, x)), Some(f)) = (self.casing_recovery.as_mut(), self.casing.flexible())
-        {
-            f.kernel.get().harmonic_state(x);
-        }
-        if let Some(f) = self.casing.flexible_mut()
-            && self
-                .probes
-                .iter()
-                .any(|p| matches!(p.target, ProbeTarget::Casing { .. }))
-        {
-            f.kernel.get_mut().node_displacements(&mut f.nodes);
-        }
-        for i in 0..self.probes.len() {
-            self.probe_values[i] = self.probe_value(i)?;
-        }
-        Ok(())
-    }
-
-    /// The value of probe `i` (m or N).
-    fn probe_value(&mut self, i: usize) -> Result<f64, SimError> {
-        let p = &self.probes[i];
-        let b = &self.blades;
-        Ok(match (p.target, p.quantity) {
-            (ProbeTarget::Recovery { blade, index }, _) => {
-                let Some((rec, eval, x)) = self.recovery.as_ref() else {
-                    return Err(SimError::InvalidCase(format!(
-                        "probe `{}` needs the impeller's recovery rows",
-                        p.column
-                    )));
-                };
-                p.direction.dot(&eval.displacement(rec, index, blade, x))
-            }
-            (ProbeTarget::CasingRecovery { sector, index }, _) => {
-                let Some((rec, eval, x)) = self.casing_recovery.as_ref() else {
-                    return Err(SimError::InvalidCase(format!(
-                        "probe `{}` needs the flexible casing's recovery rows",
-                        p.column
-                    )));
-                };
-                p.direction.dot(&eval.displacement(rec, index, sector, x))
-            }
-            (ProbeTarget::Casing { sector, index }, _) => {
-                let flexible = self
-                    .casing
-                    .surface()
-                    .and_then(|cs| Some((cs.flexible.as_ref()?, cs.rows)));
-                let Some((f, rows)) = flexible else {
-                    return Err(SimError::InvalidCase(format!(
-                        "probe `{}` needs a flexible casing",
-                        p.column
-                    )));
-                };
-                p.direction
-                    .dot(&node_disp(&f.nodes, sector, 3 * rows, index))
-            }
-            (ProbeTarget::Blade { blade, index }, q) => {
-                let node = blade * b.n_contact + index;
-                let cand = self.contact.cands.iter().position(|c| c.node == node);
-                let lambda = cand.map_or(0.0, |k| self.contact.lambda[k]);
-                match q {
-                    ProbeQuantity::Displacement => {
-                        let ub = b.kernel.get().boundary();
-                        p.direction.dot(&node_disp(ub, blade, b.nb, index))
-                    }
-                    ProbeQuantity::NormalForce => lambda,
-                    ProbeQuantity::TangentialForce => {
-                        let slip = cand.is_some_and(|k| self.contact.cands[k].slip);
-                        if slip {
-                            self.case.friction * lambda
-                        } else {
-                            0.0
-                        }
-                    }
-                    ProbeQuantity::Gap => self.probe_gap(node)?,
-                }
-            }
-        })
-    }
-
-    /// Gap (m) of blade-tip node `node` after the step: its corrected position projected on
-    /// the casing surface after the correction (the one the residual check uses), from its
-    /// warm start; exact, where the step's `d*` is predicted (and stale for nodes the
-    /// projector skipped as far). Scratch buffers only: the state is not changed.
-    fn probe_gap(&mut self, node: usize) -> Result<f64, SimError> {
-        let cs = match &self.casing {
-            Casing::Surface(cs) => cs,
-            Casing::Imposed(imposed) => {
-                return Ok(imposed.gap(node, self.t1, self.blades.kernel.get().boundary()));
-            }
-        };
-        let fast = matches!(
-            cs.flexible.as_ref().map(|f| &f.kernel),
-            Some(Kernel::Modal { .. })
-        );
-        // `advance` has moved a flexible casing's surface of this step to `past.q`.
-        let q = match (&cs.flexible, fast && !self.contact.cands.is_empty()) {
-            (None, _) => &cs.q,
-            (Some(_), true) => &cs.q_corrected,
-            (Some(_), false) => &cs.past.q,
-        };
-        let p = &mut self.projector;
-        p.res_warm[0] = p.warm[node];
-        let found = project_nodes(
-            &cs.spline,
-            q,
-            &self.blades.nodes[node..node + 1],
-            &mut p.res_warm,
-            p.eps,
-            &mut p.res_proj,
-        );
-        found.map_err(projection_failed(self.t1))?;
-        Ok(p.res_proj[0].gap)
-    }
 }
 
 /// The correction (m, blade frame) of candidate `a`'s node by the forces `λ (n + μ t)` of the
@@ -2594,6 +2415,7 @@ impl CasingFrames {
 }
 
 mod coating_stage;
+mod record;
 mod runaway_watch;
 #[cfg(test)]
 mod tests;
