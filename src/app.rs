@@ -5,7 +5,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use std::f64::consts::PI;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -27,7 +26,7 @@ use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::slurm;
 use crate::sweep::status::status as sweep_status;
 use crate::sweep::{
-    MergeSummary, Plan, ResolvedSweep, RunOptions, RunSummary, SpecError, SweepSpec,
+    MergeSummary, Plan, RunCounters, RunOptions, RunSummary, SpecError, SweepSpec,
     default_output_dir, load_records, load_spec, merge, parse_shard, plan, resolve, run_sweep,
 };
 
@@ -105,12 +104,6 @@ impl AppError {
             AppError::Interrupted => EXIT_INTERRUPTED,
         }
     }
-}
-
-/// Loads a sweep spec file and validates it as a whole with its models ([`resolve`]), before
-/// anything runs or is written.
-pub(crate) fn load_resolved(spec_path: &Path) -> Result<ResolvedSweep, SpecError> {
-    resolve(&load_spec(spec_path)?)
 }
 
 /// `spec` checked as a whole, as `plan`, `run` and `slurm` check it before anything runs or
@@ -234,44 +227,47 @@ pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Installs a Ctrl-C handler that sets `flag` (the sweep runner and the time loop poll it and
-/// stop cleanly, writing nothing half-done). Installing twice is harmless.
-pub(crate) fn cancel_on_ctrl_c(flag: Arc<AtomicBool>) {
+/// A cancel flag that Ctrl-C sets, for the CLI: the sweep runner and the time loop poll it and
+/// stop cleanly, writing nothing half-done. A library caller (a notebook binding) passes its
+/// own flag instead and keeps the process's signal handling.
+pub fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let set = flag.clone();
     let _ = ctrlc::set_handler(move || {
         eprintln!(
             "interrupt: finishing cleanly (jobs in flight are dropped and will re-run on resume)"
         );
-        flag.store(true, Ordering::SeqCst);
+        set.store(true, Ordering::SeqCst);
     });
+    flag
 }
 
 /// `rubscan simulate`: runs one job of a spec (sweep format; job `index` of its plan, 0 by
 /// default) and writes `timeseries.parquet` and `summary.json` to `output`
-/// (default `results/<name>/simulate-<index>`). Returns the output directory.
+/// (default `results/<name>/simulate-<index>`). Returns the output directory. Setting
+/// `cancel` stops the time loop ([`AppError::Interrupted`], nothing written).
 pub fn simulate(
-    spec_path: &Path,
+    spec: &SweepSpec,
     index: usize,
     output: Option<&Path>,
+    cancel: &AtomicBool,
 ) -> Result<PathBuf, AppError> {
     // As in a sweep's jobs: faer's parallel products change the round-off of the set-up
     // with the thread count, and that reaches the contact dynamics (the Rotor 37 benchmark's
     // peak-to-peak moved by 0.27 % between 1 and 2 threads).
     faer::set_global_parallelism(faer::Par::Seq);
-    let resolved = load_resolved(spec_path)?;
-    let spec = resolved.spec.clone();
-    let plan = plan(&spec)?;
+    let resolved = resolve(spec)?;
+    let plan = plan(spec)?;
     let job = plan.jobs.get(index).ok_or_else(|| {
         anyhow!(
-            "{}: the plan has {} jobs, no job {index}",
-            spec_path.display(),
+            "sweep {}: the plan has {} jobs, no job {index}",
+            spec.name,
             plan.jobs.len()
         )
     })?;
     let sim = ModelSimulator::from_resolved(resolved)?;
     sim.check_coating_limits(std::slice::from_ref(job))?;
     let (case, casing, _) = sim.case_for_job(job)?;
-    let cancel = Arc::new(AtomicBool::new(false));
-    cancel_on_ctrl_c(cancel.clone());
     let failed = |e| match e {
         SimError::Cancelled { .. } => AppError::Interrupted,
         e => AppError::SimulationFailed(e),
@@ -297,8 +293,8 @@ pub fn simulate(
     let report = spec.scenario.revolution_report;
     let mut figures = report.map(|w| ProbeReport::new(case.omega, case.duration, w));
     let out = match figures.as_mut() {
-        Some(f) => simulation.run(&mut (&mut series, f), Some(&cancel)),
-        None => simulation.run(&mut series, Some(&cancel)),
+        Some(f) => simulation.run(&mut (&mut series, f), Some(cancel)),
+        None => simulation.run(&mut series, Some(cancel)),
     };
     let out = match out {
         Ok(out) => out,
@@ -394,10 +390,15 @@ pub fn simulate(
     Ok(dir)
 }
 
+/// The jobs of a sweep, after validating the whole spec with its models as `run` does.
+pub fn checked_plan(spec: &SweepSpec) -> Result<Plan, AppError> {
+    Ok(checked_sweep(spec)?.1)
+}
+
 /// `rubscan plan`: the jobs of a sweep with their resolved parameters and the work estimate,
 /// after validating the whole spec with its models.
-pub fn plan_text(spec_path: &Path) -> Result<String, AppError> {
-    let (_, plan) = checked_sweep(&load_spec(spec_path)?)?;
+pub fn plan_text(spec: &SweepSpec) -> Result<String, AppError> {
+    let plan = checked_plan(spec)?;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -449,12 +450,20 @@ pub struct RunArgs {
     pub retry_failed: bool,
     /// Also write each job's time series to `<output>/timeseries/<job id>.parquet`.
     pub timeseries: bool,
+    /// Draw the indicatif progress bar on stderr (the CLI, when stderr is a terminal); else
+    /// plain log lines.
+    pub progress_bar: bool,
+    /// Set to stop the sweep cleanly (finished jobs kept; [`check_run`] then says
+    /// [`AppError::Interrupted`]). The CLI's is [`cancel_on_ctrl_c`].
+    pub cancel: Arc<AtomicBool>,
+    /// Jobs and steps done so far, readable while the sweep runs (a notebook's progress bar).
+    pub counters: Arc<RunCounters>,
 }
 
 /// `rubscan run`: validates the whole spec with its models, then runs (or resumes) the sweep
 /// and writes `results.parquet`, the manifest and plots. Failed jobs do not make this an
 /// error: see [`check_run`] for the exit status.
-pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
+pub fn run(spec: &SweepSpec, args: &RunArgs) -> Result<RunSummary, AppError> {
     let env = |k: &str| std::env::var(k).ok();
     let explicit = args.shard.as_deref().map(parse_shard).transpose()?;
     let from_slurm = match explicit {
@@ -466,11 +475,10 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
         None => slurm::threads_from_env(&env)?.unwrap_or(0),
     };
     // The spec alone names the output directory, checked before the models are touched.
-    let spec = load_spec(spec_path)?;
     let base = args
         .output
         .clone()
-        .unwrap_or_else(|| default_output_dir(Path::new("."), &spec));
+        .unwrap_or_else(|| default_output_dir(Path::new("."), spec));
     let mut opts = RunOptions::new(match from_slurm {
         Some((i, n)) => slurm::shard_dir(&base, i, n),
         None => base,
@@ -484,24 +492,25 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
     }
     opts.threads = threads;
     opts.shard = explicit.or(from_slurm);
-    opts.progress = std::io::stderr().is_terminal();
+    opts.progress = args.progress_bar;
     opts.retry_failed = args.retry_failed;
-    crate::sweep::runner::check_output_dir(&opts.output_dir, &spec, opts.shard)?;
-    let (mut sim, plan) = checked_sweep(&spec)?;
-    cancel_on_ctrl_c(opts.cancel.clone());
+    opts.cancel = args.cancel.clone();
+    opts.counters = args.counters.clone();
+    crate::sweep::runner::check_output_dir(&opts.output_dir, spec, opts.shard)?;
+    let (mut sim, plan) = checked_sweep(spec)?;
     if let Some(note) = sim.supercritical_note(&plan.jobs)? {
         eprintln!("[sweep] note: {note}");
     }
     if args.timeseries {
         sim = sim.with_timeseries(opts.output_dir.join("timeseries"));
     }
-    let summary = run_sweep(&spec, &opts, &sim)?;
+    let summary = run_sweep(spec, &opts, &sim)?;
     // A refined sweep's jobs are those of its rounds so far.
     let out = &opts.output_dir;
     let finished = |job: &Job| read_record(out, &job.id).ok().flatten();
-    let plan = refined_plan(&spec, &finished)?;
+    let plan = refined_plan(spec, &finished)?;
     let records = load_records(out, plan.jobs.iter());
-    for (line, found) in located_per_line(&spec, &plan, &records).iter().enumerate() {
+    for (line, found) in located_per_line(spec, &plan, &records).iter().enumerate() {
         for b in &found.boundaries {
             eprintln!(
                 "[sweep] line {line}: {} from between {:.2} and {:.2} rad/s{}",
@@ -530,7 +539,7 @@ pub fn run(spec_path: &Path, args: &RunArgs) -> Result<RunSummary, AppError> {
             );
         }
     }
-    let lobes = report::lobes(&spec);
+    let lobes = report::lobes(spec);
     let orders: Vec<u32> = (1..=8).map(|i| i * lobes).collect();
     let plots =
         write_sweep_plots(&opts.output_dir, &records, &orders).map_err(anyhow::Error::from)?;
@@ -572,8 +581,8 @@ pub fn check_run(summary: &RunSummary) -> Result<(), AppError> {
 
 /// `rubscan campbell`: critical speeds of the linear interaction criterion for a sweep's
 /// models, as a table; draws the absolute-frame Campbell diagram to `output` (PNG or SVG).
-pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
-    let sim = ModelSimulator::from_resolved(load_resolved(spec_path)?)?;
+pub fn campbell(spec: &SweepSpec, output: &Path) -> Result<String, AppError> {
+    let sim = ModelSimulator::from_resolved(resolve(spec)?)?;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -607,12 +616,9 @@ pub fn campbell(spec_path: &Path, output: &Path) -> Result<String, AppError> {
     Ok(s)
 }
 
-/// Arguments of [`stability`].
-#[derive(Debug, Clone)]
-pub struct StabilityArgs {
-    /// Diagram file (.png or .svg); one per friction coefficient when the grid has several
-    /// (`<stem>-mu<μ>.<ext>`).
-    pub output: PathBuf,
+/// The speed range of a stability prediction.
+#[derive(Debug, Clone, Copy)]
+pub struct StabilityRange {
     /// Lowest speed (rad/s); default 0.8 × the grid's lowest.
     pub from: Option<f64>,
     /// Highest speed (rad/s); default 1.2 × the grid's highest, at most the highest speed of
@@ -622,73 +628,123 @@ pub struct StabilityArgs {
     pub count: usize,
 }
 
-/// `rubscan stability`: the linear stability of a persistent rub ([`crate::analysis::stability`])
-/// of a sweep's models over a speed range, for each friction coefficient of its grid: per speed
-/// the most unstable wave, the predicted onset beside the casing's critical wave speed and the
-/// interaction criterion's Ω*, and a diagram of σ_max(Ω) per nodal diameter.
-pub fn stability(spec_path: &Path, args: &StabilityArgs) -> Result<String, AppError> {
+/// Arguments of [`stability`].
+#[derive(Debug, Clone)]
+pub struct StabilityArgs {
+    /// Diagram file (.png or .svg); one per friction coefficient when the grid has several
+    /// (`<stem>-mu<μ>.<ext>`).
+    pub output: PathBuf,
+    /// The speeds scanned.
+    pub range: StabilityRange,
+}
+
+/// The linear stability of a persistent rub over a speed range, for one friction coefficient.
+#[derive(Debug, Clone)]
+pub struct FrictionStability {
+    /// Coulomb friction coefficient μ.
+    pub friction: f64,
+    /// Per speed of the range, ascending: every coupled wave and the verdict.
+    pub speeds: Vec<crate::analysis::stability::StabilityAtSpeed>,
+    /// Lowest speed (rad/s) at which a wave grows, located to 1e-4 of the range's top; `None`
+    /// when none grows in the range.
+    pub onset_rad_s: Option<f64>,
+}
+
+/// The stability prediction of a sweep's models ([`stability_prediction`]).
+#[derive(Debug, Clone)]
+pub struct StabilityPrediction {
+    /// The flexible casing's critical wave speed min_k ω_k/k (rad/s) and its nodal diameter.
+    pub critical_wave_speed: Option<(f64, usize)>,
+    /// The interaction criterion's critical speeds Ω*_n (rad/s) in the range, with n.
+    pub interaction: Vec<(f64, u32)>,
+    /// One entry per friction coefficient of the grid, ascending.
+    pub per_friction: Vec<FrictionStability>,
+}
+
+/// The linear stability of a persistent rub ([`crate::analysis::stability`]) of a sweep's
+/// models over a speed range, for each friction coefficient of its grid.
+pub fn stability_prediction(
+    spec: &SweepSpec,
+    range: StabilityRange,
+) -> Result<StabilityPrediction, AppError> {
     use crate::analysis::stability::{Predictor, StabilityOptions};
-    use crate::sweep::stability_plot::{StabilityPlotData, stability_diagram};
     use rayon::prelude::*;
-    let resolved = load_resolved(spec_path)?;
-    let jobs = plan(&resolved.spec)?.jobs;
-    let sim = ModelSimulator::from_resolved(resolved)?;
+    let jobs = plan(spec)?.jobs;
+    let sim = ModelSimulator::from_resolved(resolve(spec)?)?;
     let (impeller, casing) = (sim.counterclockwise_models())
         .ok_or_else(|| anyhow!("the stability prediction needs a flexible casing model"))?;
     let grid =
         |f: fn(f64, f64) -> f64, init| jobs.iter().map(|j| j.params.speed_rad_s).fold(init, f);
-    let from = args.from.unwrap_or(0.8 * grid(f64::min, f64::INFINITY));
+    let from = range.from.unwrap_or(0.8 * grid(f64::min, f64::INFINITY));
     // Not beyond the impeller's modal grid, the speeds its K(Ω) fit was made for.
     let fitted = (sim.impeller().modal_data.first())
         .and_then(|m| m.omega.last().copied())
         .filter(|&w| w > 0.0)
         .unwrap_or(f64::INFINITY);
-    let to = (args.to).unwrap_or((1.2 * grid(f64::max, 0.0)).min(fitted));
-    if !(from.is_finite() && to.is_finite() && from >= 0.0 && to > from && args.count >= 2) {
+    let to = (range.to).unwrap_or((1.2 * grid(f64::max, 0.0)).min(fitted));
+    if !(from.is_finite() && to.is_finite() && from >= 0.0 && to > from && range.count >= 2) {
         return Err(anyhow!(
             "speed range --from {from} --to {to} --count {} is invalid (0 ≤ from < to, count ≥ 2)",
-            args.count
+            range.count
         )
         .into());
     }
-    let omegas: Vec<f64> = (0..args.count)
-        .map(|i| from + (to - from) * i as f64 / (args.count - 1) as f64)
+    let omegas: Vec<f64> = (0..range.count)
+        .map(|i| from + (to - from) * i as f64 / (range.count - 1) as f64)
         .collect();
     let mut frictions: Vec<f64> = jobs.iter().map(|j| j.params.friction).collect();
     frictions.sort_by(f64::total_cmp);
     frictions.dedup();
-    let wave_speed = sim.casing_wave_speed()?;
-    let interaction: Vec<(f64, u32)> = (sim.critical_speeds().iter())
+    let interaction = (sim.critical_speeds().iter())
         .filter(|c| (from..=to).contains(&c.speed_rad_s))
         .map(|c| (c.speed_rad_s, c.nodal_diameter))
         .collect();
+    let per_friction = (frictions.iter())
+        .map(|&mu| {
+            let p = Predictor::new(&impeller, &casing, &StabilityOptions::with_friction(mu))?;
+            let speeds = omegas.par_iter().map(|&w| p.at(w)).collect::<Result<_, _>>()?;
+            let onset_rad_s = p.onset_speed(from, to, 1e-4 * to)?;
+            Ok(FrictionStability {
+                friction: mu,
+                speeds,
+                onset_rad_s,
+            })
+        })
+        .collect::<Result<_, crate::analysis::stability::StabilityError>>()
+        .map_err(anyhow::Error::from)?;
+    Ok(StabilityPrediction {
+        critical_wave_speed: sim.casing_wave_speed()?,
+        interaction,
+        per_friction,
+    })
+}
+
+/// `rubscan stability`: [`stability_prediction`] as a table, per speed the most unstable wave
+/// and the predicted onset beside the casing's critical wave speed and the interaction
+/// criterion's Ω*, with a diagram of σ_max(Ω) per nodal diameter per friction coefficient.
+pub fn stability(spec: &SweepSpec, args: &StabilityArgs) -> Result<String, AppError> {
+    use crate::sweep::stability_plot::{StabilityPlotData, stability_diagram};
+    let prediction = stability_prediction(spec, args.range)?;
     let mut s = String::new();
-    if let Some((w, k)) = wave_speed {
+    if let Some((w, k)) = prediction.critical_wave_speed {
         let _ = writeln!(
             s,
             "casing critical wave speed {w:.1} rad/s (nodal diameter {k})"
         );
     }
-    for (w, n) in &interaction {
+    for (w, n) in &prediction.interaction {
         let _ = writeln!(s, "interaction criterion Ω*_{n} = {w:.1} rad/s");
     }
-    for &mu in &frictions {
-        let p = Predictor::new(&impeller, &casing, &StabilityOptions::with_friction(mu))
-            .map_err(anyhow::Error::from)?;
-        let at: Vec<_> = (omegas
-            .par_iter()
-            .map(|&w| p.at(w))
-            .collect::<Result<_, _>>())
-        .map_err(anyhow::Error::from)?;
-        let onset = (p.onset_speed(from, to, 1e-4 * to)).map_err(anyhow::Error::from)?;
-        stability_table(&mut s, mu, &at, onset);
-        let path = diagram_path(&args.output, mu, frictions.len());
+    let n_frictions = prediction.per_friction.len();
+    for f in &prediction.per_friction {
+        stability_table(&mut s, f.friction, &f.speeds, f.onset_rad_s);
+        let path = diagram_path(&args.output, f.friction, n_frictions);
         let data = StabilityPlotData {
-            friction: mu,
-            speeds: &at,
-            onset_rad_s: onset,
-            critical_wave_speed: wave_speed,
-            interaction_speeds: interaction.clone(),
+            friction: f.friction,
+            speeds: &f.speeds,
+            onset_rad_s: f.onset_rad_s,
+            critical_wave_speed: prediction.critical_wave_speed,
+            interaction_speeds: prediction.interaction.clone(),
         };
         stability_diagram(&data, &path).map_err(anyhow::Error::from)?;
         let _ = writeln!(s, "stability diagram -> {}", path.display());

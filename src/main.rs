@@ -1,10 +1,12 @@
 //! `rubscan` command line: parses arguments and dispatches to [`rubscan::app`].
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use rubscan::app::{self, AppError, ImportFormat, ReportOptions, RunArgs, SlurmArgs};
+use rubscan::sweep::load_spec;
 
 /// Exit statuses, shown by `rubscan --help`.
 const EXIT_STATUS_HELP: &str = "\
@@ -231,9 +233,10 @@ fn dispatch(command: Command) -> Result<(), AppError> {
             action: ModelAction::Info { file },
         } => Ok(app::model_info(&file).map(|text| print!("{text}"))?),
         Command::Simulate { spec, job, output } => {
-            app::simulate(&spec, job, output.as_deref()).map(drop)
+            app::simulate(&load_spec(&spec)?, job, output.as_deref(), &app::cancel_on_ctrl_c())
+                .map(drop)
         }
-        Command::Plan { spec } => app::plan_text(&spec).map(|text| print!("{text}")),
+        Command::Plan { spec } => app::plan_text(&load_spec(&spec)?).map(|text| print!("{text}")),
         Command::Run {
             spec,
             threads,
@@ -242,13 +245,16 @@ fn dispatch(command: Command) -> Result<(), AppError> {
             retry_failed,
             timeseries,
         } => app::run(
-            &spec,
+            &load_spec(&spec)?,
             &RunArgs {
                 threads,
                 shard,
                 output,
                 retry_failed,
                 timeseries,
+                progress_bar: std::io::stderr().is_terminal(),
+                cancel: app::cancel_on_ctrl_c(),
+                counters: Default::default(),
             },
         )
         .and_then(|summary| app::check_run(&summary)),
@@ -289,7 +295,7 @@ fn dispatch(command: Command) -> Result<(), AppError> {
         )
         .map(|text| print!("{text}")),
         Command::Campbell { spec, output } => {
-            app::campbell(&spec, &output).map(|text| print!("{text}"))
+            app::campbell(&load_spec(&spec)?, &output).map(|text| print!("{text}"))
         }
         Command::Stability {
             spec,
@@ -298,12 +304,10 @@ fn dispatch(command: Command) -> Result<(), AppError> {
             to,
             count,
         } => app::stability(
-            &spec,
+            &load_spec(&spec)?,
             &app::StabilityArgs {
                 output,
-                from,
-                to,
-                count,
+                range: app::StabilityRange { from, to, count },
             },
         )
         .map(|text| print!("{text}")),

@@ -772,7 +772,13 @@ fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
     std::fs::write(&spec_path, serde_json::to_string(&spec).unwrap()).unwrap();
     let figures = |par: faer::Par, tag: &str| {
         faer::set_global_parallelism(par);
-        let dir = rubscan::app::simulate(&spec_path, 0, Some(&work.join(tag))).expect("run");
+        let dir = rubscan::app::simulate(
+            &rubscan::sweep::load_spec(&spec_path).unwrap(),
+            0,
+            Some(&work.join(tag)),
+            &Default::default(),
+        )
+        .expect("run");
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
                 .unwrap();
@@ -829,7 +835,13 @@ fn run_benchmark(
     let spec_path = out.join("benchmark.json");
     std::fs::write(&spec_path, serde_json::to_string(&spec).unwrap()).unwrap();
     let t = Instant::now();
-    let dir = rubscan::app::simulate(&spec_path, 0, Some(&out.join("out"))).expect("benchmark");
+    let dir = rubscan::app::simulate(
+        &rubscan::sweep::load_spec(&spec_path).unwrap(),
+        0,
+        Some(&out.join("out")),
+        &Default::default(),
+    )
+    .expect("benchmark");
     let wall = t.elapsed();
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();

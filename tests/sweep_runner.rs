@@ -420,7 +420,7 @@ fn step_progress_reaches_the_planned_steps_of_a_small_sweep() {
     let o = opts(&dir, 2);
     let summary = run_sweep(&spec, &o, &sim).unwrap();
     assert_eq!((summary.ran, summary.ok), (2, 2));
-    assert_eq!(o.steps_done.load(Ordering::SeqCst), 2 * per_job);
+    assert_eq!(o.counters.steps_done.load(Ordering::SeqCst), 2 * per_job);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -439,7 +439,7 @@ fn step_counter_counts_finished_jobs_without_reports() {
     let summary = run_sweep(&spec, &o, &sim).unwrap();
     assert!(summary.failed > 0 && summary.ok > 0);
     assert_eq!(
-        o.steps_done.load(Ordering::SeqCst),
+        o.counters.steps_done.load(Ordering::SeqCst),
         p.steps_per_job.unwrap() * p.jobs.len() as u64
     );
     let _ = std::fs::remove_dir_all(&dir);

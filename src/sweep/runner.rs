@@ -42,10 +42,22 @@ pub struct RunOptions {
     /// Set to stop cleanly: no new job starts, jobs in flight are not recorded unless they
     /// complete, results and manifest are written for what is finished.
     pub cancel: Arc<AtomicBool>,
+    /// Jobs and steps done so far, readable while the run goes on.
+    pub counters: Arc<RunCounters>,
+}
+
+/// What a run has done so far, updated while it runs, for a progress display outside the
+/// runner (a notebook's bar reads it from another thread).
+#[derive(Debug, Default)]
+pub struct RunCounters {
     /// Time steps done by the jobs this run runs, counted while they run (capped at each job's
     /// planned steps, topped up when a job finishes ok or failed): after a run that was not
     /// cancelled it holds the planned steps of every job it ran. The progress bar shows it.
-    pub steps_done: Arc<AtomicU64>,
+    pub steps_done: AtomicU64,
+    /// Jobs queued to run so far (each refinement round adds its new jobs).
+    pub jobs_queued: AtomicUsize,
+    /// Jobs of those finished and recorded.
+    pub jobs_finished: AtomicUsize,
 }
 
 impl RunOptions {
@@ -58,7 +70,7 @@ impl RunOptions {
             progress: false,
             retry_failed: false,
             cancel: Arc::new(AtomicBool::new(false)),
-            steps_done: Arc::new(AtomicU64::new(0)),
+            counters: Arc::default(),
         }
     }
 }
@@ -566,6 +578,7 @@ fn run_round(
     ctx.write(out, &early)?;
 
     let reporter = Reporter::new(pending.len(), opts.progress, plan.steps_per_job);
+    (opts.counters.jobs_queued).fetch_add(pending.len(), Ordering::SeqCst);
     if skipped > 0 {
         reporter.log(&format!(
             "[sweep] resuming: {skipped} of {} jobs already finished",
@@ -586,7 +599,7 @@ fn run_round(
             if cancel.load(Ordering::SeqCst) {
                 return;
             }
-            let mut steps = reporter.job_steps(&opts.steps_done);
+            let mut steps = reporter.job_steps(&opts.counters.steps_done);
             let Some(mut rec) = execute(job, sim, cancel, &mut steps) else {
                 return;
             };
@@ -601,6 +614,7 @@ fn run_round(
                 return;
             }
             ran.fetch_add(1, Ordering::SeqCst);
+            opts.counters.jobs_finished.fetch_add(1, Ordering::SeqCst);
             reporter.finished(job, &rec);
         });
     });
