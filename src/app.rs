@@ -26,7 +26,7 @@ use crate::sweep::simulator::ModelSimulator;
 use crate::sweep::slurm;
 use crate::sweep::status::status as sweep_status;
 use crate::sweep::{
-    MergeSummary, Plan, RunCounters, RunOptions, RunSummary, SpecError, SweepSpec,
+    CriticalSpeed, MergeSummary, Plan, RunCounters, RunOptions, RunSummary, SpecError, SweepSpec,
     default_output_dir, load_records, load_spec, merge, parse_shard, plan, resolve, run_sweep,
 };
 
@@ -577,6 +577,15 @@ pub fn check_run(summary: &RunSummary) -> Result<(), AppError> {
         });
     }
     Ok(())
+}
+
+/// The linear interaction criterion's critical speeds of a sweep's models, and the flexible
+/// casing's critical wave speed min_k ω_k/k (rad/s, with its nodal diameter) when it has one.
+pub fn critical_speeds(
+    spec: &SweepSpec,
+) -> Result<(Vec<CriticalSpeed>, Option<(f64, usize)>), AppError> {
+    let sim = ModelSimulator::from_resolved(resolve(spec)?)?;
+    Ok((sim.critical_speeds().to_vec(), sim.casing_wave_speed()?))
 }
 
 /// `rubscan campbell`: critical speeds of the linear interaction criterion for a sweep's

@@ -27,7 +27,7 @@ use parquet::file::properties::WriterProperties;
 use crate::dynamics::runaway::Runaway;
 use crate::io::atomic::AtomicFile;
 use crate::sweep::checkpoint::{JobRecord, JobStatus};
-use crate::sweep::planner::{CoatingParams, CoatingValue, JobParams};
+use crate::sweep::planner::{CoatingParams, CoatingValue, JobParams, Plan};
 
 /// Column name, unit (`"1"` = dimensionless, `""` = not a quantity) and description,
 /// in table order.
@@ -394,6 +394,54 @@ fn runaway_of_row(b: &RecordBatch, i: usize) -> Result<Option<Runaway>> {
     }))
 }
 
+/// The plan's columns of a job: `job_index` to `refinement_round` of [`COLUMNS`].
+const PLAN_COLUMNS: usize = 14;
+
+/// The columns that say what a job is (`job_index` … `refinement_round`, the first
+/// [`PLAN_COLUMNS`] of [`COLUMNS`]) for rows `(index, id, parameters, refinement round)`.
+fn plan_columns(rows: &[(usize, &str, &JobParams, u32)]) -> Vec<ArrayRef> {
+    let mut cols: Vec<ArrayRef> = Vec::with_capacity(COLUMNS.len());
+    cols.push(Arc::new(arrow_array::UInt64Array::from_iter_values(
+        rows.iter().map(|r| r.0 as u64),
+    )));
+    cols.push(Arc::new(arrow_array::StringArray::from_iter_values(
+        rows.iter().map(|r| r.1),
+    )));
+    cols.push(f64_col(rows.iter().map(|r| Some(r.2.speed_rad_s))));
+    cols.push(f64_col(rows.iter().map(|r| Some(r.2.friction))));
+    cols.push(f64_col(rows.iter().map(|r| r.2.clearance_m)));
+    for get in [
+        |c: &CoatingParams| c.young,
+        |c: &CoatingParams| c.hardening,
+        |c: &CoatingParams| c.yield_stress,
+        |c: &CoatingParams| c.thickness,
+    ] {
+        let vals: Vec<Option<CoatingValue>> = rows.iter().map(|r| get(&r.2.coating)).collect();
+        let (a, s) = coating_cols(&vals);
+        cols.push(a);
+        cols.push(s);
+    }
+    cols.push(Arc::new(UInt32Array::from_iter_values(
+        rows.iter().map(|r| r.3),
+    )));
+    debug_assert_eq!(cols.len(), PLAN_COLUMNS);
+    cols
+}
+
+/// The jobs of a plan as a table: the results table's first columns (`job_index` …
+/// `refinement_round`, with their units as field metadata), one row per job.
+pub fn plan_batch(plan: &Plan) -> Result<RecordBatch> {
+    let rows: Vec<_> = (plan.jobs.iter())
+        .map(|j| {
+            let round = plan.refinement_round(j.index);
+            (j.index, j.id.as_str(), &j.params, round)
+        })
+        .collect();
+    let cols = plan_columns(&rows);
+    let schema = Arc::new(table_schema(&cols));
+    RecordBatch::try_new(schema, cols).context("building the plan table")
+}
+
 /// Builds the results table from job records `(job index, record)`; rows are sorted by index.
 pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> {
     let mut rows: Vec<&(usize, JobRecord)> = rows.iter().collect();
@@ -401,33 +449,10 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
     let res = |f: fn(&crate::sweep::JobResult) -> Option<f64>| -> ArrayRef {
         f64_col(rows.iter().map(|(_, r)| r.result.as_ref().and_then(f)))
     };
-    let mut cols: Vec<ArrayRef> = Vec::with_capacity(COLUMNS.len());
-    cols.push(Arc::new(arrow_array::UInt64Array::from_iter_values(
-        rows.iter().map(|(i, _)| *i as u64),
-    )));
-    cols.push(Arc::new(arrow_array::StringArray::from_iter_values(
-        rows.iter().map(|(_, r)| r.id.as_str()),
-    )));
-    cols.push(f64_col(
-        rows.iter().map(|(_, r)| Some(r.params.speed_rad_s)),
-    ));
-    cols.push(f64_col(rows.iter().map(|(_, r)| Some(r.params.friction))));
-    cols.push(f64_col(rows.iter().map(|(_, r)| r.params.clearance_m)));
-    for get in [
-        |c: &crate::sweep::CoatingParams| c.young,
-        |c: &crate::sweep::CoatingParams| c.hardening,
-        |c: &crate::sweep::CoatingParams| c.yield_stress,
-        |c: &crate::sweep::CoatingParams| c.thickness,
-    ] {
-        let vals: Vec<Option<CoatingValue>> =
-            rows.iter().map(|(_, r)| get(&r.params.coating)).collect();
-        let (a, s) = coating_cols(&vals);
-        cols.push(a);
-        cols.push(s);
-    }
-    cols.push(Arc::new(UInt32Array::from_iter_values(
-        rows.iter().map(|(_, r)| r.refinement_round),
-    )));
+    let plan_rows: Vec<_> = (rows.iter())
+        .map(|(i, r)| (*i, r.id.as_str(), &r.params, r.refinement_round))
+        .collect();
+    let mut cols = plan_columns(&plan_rows);
     let mut status = StringBuilder::new();
     let mut reason = StringBuilder::new();
     for (_, r) in &rows {
@@ -855,6 +880,26 @@ mod tests {
                     "unit of {name} in results.md: {line}"
                 );
             }
+        }
+    }
+
+    /// The plan table has the results table's parameter columns, in order and with their
+    /// units, and one row per job with its parameters.
+    #[test]
+    fn plan_table_has_the_results_parameter_columns() {
+        let spec = crate::sweep::parse_spec(include_str!("../../tests/data/small_sweep.json"));
+        let plan = crate::sweep::plan(&spec.unwrap()).unwrap();
+        let b = plan_batch(&plan).unwrap();
+        assert_eq!(b.num_rows(), plan.jobs.len());
+        assert_eq!(COLUMNS[PLAN_COLUMNS - 1].0, "refinement_round");
+        let results = results_batch(&[]).unwrap();
+        for (k, field) in b.schema().fields().iter().enumerate() {
+            assert_eq!(field.as_ref(), results.schema().field(k));
+        }
+        assert_eq!(b.num_columns(), PLAN_COLUMNS);
+        let speeds = b.column(2).as_any().downcast_ref::<Float64Array>().unwrap();
+        for j in &plan.jobs {
+            assert_eq!(speeds.value(j.index), j.params.speed_rad_s);
         }
     }
 
