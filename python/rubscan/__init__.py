@@ -122,7 +122,9 @@ def run(
     progress: bool | Callable[[int, int, int], None] | None = None,
     frame: Frame = "pandas",
 ) -> Any:
-    """Runs (or resumes) a sweep and returns its results table (``results.parquet``).
+    """Runs (or resumes) a sweep and returns its results table (``results.parquet``: one row
+    per job, SI units in the column names, e.g. ``speed_rad_s``, ``max_blade_le_radial_m``,
+    ``max_contact_normal_force_n``, and in each column's metadata).
 
     ``threads``: workers, None or 0 for every core. ``output_dir``: default
     ``results/<name>`` under the current folder. ``retry_failed`` re-runs failed jobs;

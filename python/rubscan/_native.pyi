@@ -2,9 +2,23 @@
 
 import os
 from collections.abc import Callable
-from typing import Any
+from typing import Any, final
 
 import pyarrow as pa
+
+__all__ = [
+    "DEFAULT_REPORT_JOBS",
+    "RubscanError",
+    "Spec",
+    "SpecError",
+    "critical_speeds",
+    "plan",
+    "report",
+    "run",
+    "simulate",
+    "stability",
+    "version",
+]
 
 class RubscanError(RuntimeError):
     """A rubscan command failed: a model that cannot be built or read, an I/O error, a failed
@@ -20,6 +34,7 @@ class SpecError(ValueError):
     reason: str
     """The first issue's reason."""
 
+@final
 class Spec:
     """A sweep spec, parsed and checked against the schema and the semantic rules."""
 
@@ -69,7 +84,7 @@ def report(
     results: str | os.PathLike[str],
     output_dir: str | os.PathLike[str] | None = None,
     jobs: list[int] | None = None,
-    max_jobs: int = 6,
+    max_jobs: int = ...,
 ) -> str:
     """Writes the report's figures and index.html; returns the path of index.html."""
 
