@@ -133,7 +133,8 @@ fn rotor37() -> anyhow::Result<()> {
         }
         let path = dir.join("spec.json");
         std::fs::write(&path, serde_json::to_string(&spec)?)?;
-        let out = rubscan::app::simulate(&path, 0, Some(&dir.join("out")))?;
+        let spec = rubscan::sweep::load_spec(&path)?;
+        let out = rubscan::app::simulate(&spec, 0, Some(&dir.join("out")), &Default::default())?;
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json"))?)?;
         println!(

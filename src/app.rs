@@ -579,13 +579,24 @@ pub fn check_run(summary: &RunSummary) -> Result<(), AppError> {
     Ok(())
 }
 
+/// The critical speeds of a sweep's models ([`critical_speeds`]).
+#[derive(Debug, Clone)]
+pub struct CriticalSpeeds {
+    /// The linear interaction criterion's coincidences, by increasing speed.
+    pub speeds: Vec<CriticalSpeed>,
+    /// The flexible casing's critical wave speed min_k ω_k/k (rad/s) and its nodal diameter;
+    /// `None` for a rigid casing.
+    pub critical_wave_speed: Option<(f64, usize)>,
+}
+
 /// The linear interaction criterion's critical speeds of a sweep's models, and the flexible
-/// casing's critical wave speed min_k ω_k/k (rad/s, with its nodal diameter) when it has one.
-pub fn critical_speeds(
-    spec: &SweepSpec,
-) -> Result<(Vec<CriticalSpeed>, Option<(f64, usize)>), AppError> {
+/// casing's critical wave speed when it has one.
+pub fn critical_speeds(spec: &SweepSpec) -> Result<CriticalSpeeds, AppError> {
     let sim = ModelSimulator::from_resolved(resolve(spec)?)?;
-    Ok((sim.critical_speeds().to_vec(), sim.casing_wave_speed()?))
+    Ok(CriticalSpeeds {
+        speeds: sim.critical_speeds().to_vec(),
+        critical_wave_speed: sim.casing_wave_speed()?,
+    })
 }
 
 /// `rubscan campbell`: critical speeds of the linear interaction criterion for a sweep's
@@ -711,7 +722,10 @@ pub fn stability_prediction(
     let per_friction = (frictions.iter())
         .map(|&mu| {
             let p = Predictor::new(&impeller, &casing, &StabilityOptions::with_friction(mu))?;
-            let speeds = omegas.par_iter().map(|&w| p.at(w)).collect::<Result<_, _>>()?;
+            let speeds = omegas
+                .par_iter()
+                .map(|&w| p.at(w))
+                .collect::<Result<_, _>>()?;
             let onset_rad_s = p.onset_speed(from, to, 1e-4 * to)?;
             Ok(FrictionStability {
                 friction: mu,

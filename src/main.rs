@@ -232,10 +232,13 @@ fn dispatch(command: Command) -> Result<(), AppError> {
         Command::Model {
             action: ModelAction::Info { file },
         } => Ok(app::model_info(&file).map(|text| print!("{text}"))?),
-        Command::Simulate { spec, job, output } => {
-            app::simulate(&load_spec(&spec)?, job, output.as_deref(), &app::cancel_on_ctrl_c())
-                .map(drop)
-        }
+        Command::Simulate { spec, job, output } => app::simulate(
+            &load_spec(&spec)?,
+            job,
+            output.as_deref(),
+            &app::cancel_on_ctrl_c(),
+        )
+        .map(drop),
         Command::Plan { spec } => app::plan_text(&load_spec(&spec)?).map(|text| print!("{text}")),
         Command::Run {
             spec,

@@ -94,19 +94,25 @@ def plan(spec: SpecLike, *, frame: Frame = "pandas") -> Any:
 
 
 def _tqdm_progress() -> Callable[[int, int, int], None] | None:
+    """A tqdm bar over the sweep's jobs (a widget in a notebook), or None without tqdm."""
     try:
         from tqdm.auto import tqdm
     except ImportError:
         return None
-    bar = tqdm(total=0, unit="job", desc="rubscan")
+    bar: Any = None
 
     def update(finished: int, queued: int, _steps: int) -> None:
+        nonlocal bar
+        if queued == 0:
+            return
+        if bar is None:
+            bar = tqdm(total=queued, unit="job", desc="rubscan")
         if bar.total != queued:
             bar.total = queued
             bar.refresh()
         if finished > bar.n:
             bar.update(finished - bar.n)
-        if queued and finished >= queued:
+        if finished >= queued:
             bar.close()
 
     return update

@@ -229,21 +229,27 @@ fn simulate(
     dir.map_err(|e| to_py(py, e))
 }
 
+/// A flexible casing's critical wave speed (rad/s) and its nodal diameter.
+type WaveSpeed = Option<(f64, usize)>;
+
 /// The linear interaction criterion's critical speeds Ω*_n (rad/s) of a sweep's models, with
 /// the nodal diameter n and the modes' spatial compatibility; and the flexible casing's
 /// critical wave speed (rad/s, nodal diameter) or None.
 #[pyfunction]
-fn critical_speeds<'py>(
-    py: Python<'py>,
-    spec: &Spec,
-) -> PyResult<(Bound<'py, PyAny>, Option<(f64, usize)>)> {
-    let (speeds, wave) = py
+fn critical_speeds<'py>(py: Python<'py>, spec: &Spec) -> PyResult<(Bound<'py, PyAny>, WaveSpeed)> {
+    let found = py
         .detach(|| app::critical_speeds(&spec.spec))
         .map_err(|e| to_py(py, e))?;
+    let speeds = &found.speeds;
     let batch = RecordBatch::try_from_iter([
         (
             "speed_rad_s",
-            Arc::new(speeds.iter().map(|c| c.speed_rad_s).collect::<Float64Array>()) as ArrayRef,
+            Arc::new(
+                speeds
+                    .iter()
+                    .map(|c| c.speed_rad_s)
+                    .collect::<Float64Array>(),
+            ) as ArrayRef,
         ),
         (
             "speed_rpm",
@@ -255,15 +261,25 @@ fn critical_speeds<'py>(
         ),
         (
             "nodal_diameter",
-            Arc::new(speeds.iter().map(|c| c.nodal_diameter).collect::<UInt32Array>()),
+            Arc::new(
+                speeds
+                    .iter()
+                    .map(|c| c.nodal_diameter)
+                    .collect::<UInt32Array>(),
+            ),
         ),
         (
             "compatibility",
-            Arc::new(speeds.iter().map(|c| c.compatibility).collect::<Float64Array>()),
+            Arc::new(
+                speeds
+                    .iter()
+                    .map(|c| c.compatibility)
+                    .collect::<Float64Array>(),
+            ),
         ),
     ])
     .map_err(|e| RubscanError::new_err(e.to_string()))?;
-    Ok((batch.to_pyarrow(py)?, wave))
+    Ok((batch.to_pyarrow(py)?, found.critical_wave_speed))
 }
 
 /// The linear stability of a persistent rub over `count` speeds from `from_rad_s` to

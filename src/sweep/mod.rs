@@ -41,8 +41,8 @@ use crate::dynamics::runaway::Runaway;
 pub use checkpoint::{JobRecord, JobStatus};
 pub use planner::{CoatingParams, CoatingValue, Job, JobContext, JobParams, Plan, plan};
 pub use runner::{
-    Manifest, MergeSummary, RunCounters, RunOptions, RunSummary, default_output_dir, load_records, merge,
-    parse_shard, read_manifest, run_sweep,
+    Manifest, MergeSummary, RunCounters, RunOptions, RunSummary, default_output_dir, load_records,
+    merge, parse_shard, read_manifest, run_sweep,
 };
 pub use spec::{SpecError, SpecIssue, SweepSpec, load_spec, parse_spec};
 pub use validate::{ResolvedSweep, resolve};
