@@ -209,11 +209,14 @@ fn screenshot(chromium: &Path, page: &Path, out: &Path) -> Image {
     Image::read(out)
 }
 
-/// The images of a screenshot that loaded: image boxes mostly filled with plot colours.
+/// The images of a screenshot that show data: image boxes with plot colours on more than
+/// 0.2 % of their pixels. Axes, grid and text are grey; a legend's swatches alone colour
+/// 0.013 % of the quickstart's response figure, while its one line with four markers colours
+/// 0.72 % and the other figures 2.8–68 %.
 fn loaded_images(img: &Image) -> usize {
     image_boxes(img)
         .into_iter()
-        .filter(|&b| img.fraction(b, colourful) > 0.01)
+        .filter(|&b| img.fraction(b, colourful) > 0.002)
         .count()
 }
 
@@ -293,14 +296,16 @@ fn report_of_a_small_sweep_shows_every_figure_in_a_browser() {
     cleanup(&dir);
 }
 
-/// The main job's way (`rubscan run` without `--timeseries`, as the quickstart): no figure
-/// of the page is without data. With no series and no coating the time histories are left
-/// out, with one note saying how to get them, instead of empty panels.
+/// The main job itself (`rubscan run sweeps/quickstart.json`, no `--timeseries`): no figure
+/// of its report is without data, in a browser's screenshot. With no series and no coating
+/// the time histories are left out, with one note saying how to get them, instead of empty
+/// panels.
 #[test]
-fn report_without_series_has_no_figure_without_data() {
+fn the_main_jobs_report_has_no_figure_without_data() {
     let dir = tmp("noseries");
+    let quickstart = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/quickstart.json");
     ok(rubscan()
-        .args(["run", SMALL, "--threads", "1", "-o"])
+        .args(["run", quickstart, "--threads", "2", "-o"])
         .arg(&dir)
         .output()
         .unwrap());
@@ -313,8 +318,8 @@ fn report_without_series_has_no_figure_without_data() {
         [
             "response_vs_speed.png",
             "nd_strain_energy.png",
-            "interaction_map_0.png",
-            "interaction_map_1.png"
+            "campbell.png",
+            "interaction_map.png"
         ]
     );
     assert!(!out.join("time_histories.png").exists());

@@ -149,3 +149,30 @@ def test_report_writes_a_page(repo, tmp_path):
     assert index == tmp_path / "out/report/index.html" and "<img" in index.read_text()
     with pytest.raises(rubscan.RubscanError, match="not a results directory"):
         rubscan.report(tmp_path / "nothing-here")
+
+
+def test_the_gil_is_released_while_jobs_run(repo, tmp_path):
+    """Another Python thread keeps running while a sweep runs."""
+    import threading
+    import time
+
+    ticks = 0
+    stop = threading.Event()
+
+    def count() -> None:
+        nonlocal ticks
+        while not stop.is_set():
+            ticks += 1
+            time.sleep(0.001)
+
+    spec = spec_dict(repo, "quickstart")
+    spec["grid"]["speed"]["values"] = [2000, 3000]
+    counter = threading.Thread(target=count)
+    counter.start()
+    t0 = time.perf_counter()
+    rubscan.run(spec, output_dir=tmp_path / "out", threads=1, progress=False)
+    elapsed = time.perf_counter() - t0
+    stop.set()
+    counter.join()
+    # A held GIL would leave the counter at the few ticks of the 100 ms polls.
+    assert ticks > 100 * elapsed, (ticks, elapsed)
