@@ -5,6 +5,7 @@
 
 pub mod atomic;
 pub mod calculix;
+pub mod calculix_dat;
 pub mod calculix_export;
 pub mod content_hash;
 pub mod matrix_market;
