@@ -377,6 +377,51 @@ mod tests {
         assert!(freq.contains("NMIN=0, NMAX=4"));
     }
 
+    /// The model deck read back by rubscan's own CalculiX reader (through the frequency
+    /// deck's `*INCLUDE`): every node within 1e-14 relative of the mesh, the face, clamp and
+    /// contact sets in the mesh's order.
+    #[test]
+    fn the_deck_reads_back_as_the_mesh() {
+        use crate::io::calculix::read_calculix_mesh;
+        let mesh = ImpellerGeometry {
+            n_blades: 6,
+            ..ImpellerGeometry::default()
+        }
+        .build()
+        .unwrap();
+        let dir = std::env::temp_dir().join(format!("rubscan-export-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let opts = FrequencyDeck {
+            model_file: "impeller_sector.inp".into(),
+            modes_per_diameter: 4,
+        };
+        std::fs::write(
+            dir.join(&opts.model_file),
+            model_deck(&mesh, "impeller").unwrap(),
+        )
+        .unwrap();
+        let job = dir.join("impeller_frequencies.inp");
+        std::fs::write(&job, frequency_deck(&mesh, &opts)).unwrap();
+        let back = read_calculix_mesh(&job).unwrap();
+        assert_eq!(back.nodes.len(), mesh.nodes.len());
+        for (i, p) in mesh.nodes.iter().enumerate() {
+            let q = back.nodes[&(i + 1)];
+            for d in 0..3 {
+                assert!(
+                    (p[d] - q[d]).abs() <= 1e-14 * 0.2,
+                    "node {i}: {p:?} vs {q:?}"
+                );
+            }
+        }
+        let ids = |v: &[usize]| v.iter().map(|n| n + 1).collect::<Vec<_>>();
+        assert_eq!(back.node_sets[sets::LEFT], ids(&mesh.left_nodes));
+        assert_eq!(back.node_sets[sets::RIGHT], ids(&mesh.right_nodes));
+        assert_eq!(back.node_sets[sets::CLAMPED], ids(&mesh.clamped_nodes));
+        assert_eq!(back.node_sets[sets::CONTACT], ids(&mesh.contact_nodes));
+        assert_eq!(back.node_sets["LEADING_EDGE_MID_SPAN"].len(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     /// Every real field fits CalculiX's 20 characters and reads back within 1e-14 (1e-12 with
     /// a three-digit exponent).
     #[test]
