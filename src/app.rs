@@ -227,6 +227,54 @@ pub fn model_build(spec: Option<&Path>, output: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Target format of `rubscan model export`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExportFormat {
+    /// CalculiX input decks (C3D20, cyclic symmetry), see [`crate::io::calculix_export`].
+    Calculix,
+}
+
+/// `rubscan model export calculix [spec] -o dir`: writes the built-in impeller and casing
+/// sectors of a model spec (the meshes `rubscan model build` reduces, same defaults) as
+/// CalculiX decks: `<component>_sector.inp` (model definition) and
+/// `<component>_frequencies.inp` (cyclic frequencies of every nodal diameter at rest; run
+/// `ccx <component>_frequencies` in `dir`). Returns the written files, impeller first.
+pub fn model_export(
+    format: ExportFormat,
+    spec: Option<&Path>,
+    output: &Path,
+) -> Result<Vec<PathBuf>> {
+    use crate::io::calculix_export::{
+        DEFAULT_CALCULIX_MODES, FrequencyDeck, frequency_deck, model_deck,
+    };
+    let ExportFormat::Calculix = format;
+    let label = spec.map_or("built-in defaults".to_string(), |p| p.display().to_string());
+    let spec = read_model_spec(spec)?;
+    let meshes = [
+        ("impeller", spec.impeller.geometry.build()),
+        ("casing", spec.casing.geometry.build()),
+    ];
+    // Every deck is made before any is written: a bad casing leaves no impeller deck.
+    let mut files = Vec::new();
+    for (component, mesh) in meshes {
+        let mesh = mesh.with_context(|| format!("{label}: {component} geometry"))?;
+        let model_file = format!("{component}_sector.inp");
+        let model = model_deck(&mesh, component)?;
+        let opts = FrequencyDeck {
+            model_file: model_file.clone(),
+            modes_per_diameter: DEFAULT_CALCULIX_MODES,
+        };
+        files.push((output.join(&model_file), model));
+        let freq = output.join(format!("{component}_frequencies.inp"));
+        files.push((freq, frequency_deck(&mesh, &opts)));
+    }
+    for (path, text) in &files {
+        crate::io::atomic::write_atomic(path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(files.into_iter().map(|(p, _)| p).collect())
+}
+
 /// A cancel flag that Ctrl-C sets, for the CLI: the sweep runner and the time loop poll it and
 /// stop cleanly, writing nothing half-done. A library caller (a notebook binding) passes its
 /// own flag instead and keeps the process's signal handling.

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use rubscan::app::{self, AppError, ImportFormat, ReportOptions, RunArgs, SlurmArgs};
+use rubscan::app::{self, AppError, ExportFormat, ImportFormat, ReportOptions, RunArgs, SlurmArgs};
 use rubscan::sweep::load_spec;
 
 /// Exit statuses, shown by `rubscan --help`.
@@ -175,11 +175,27 @@ enum ModelAction {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Write the built-in impeller and casing sectors of a model spec as solver input decks
+    /// (CalculiX: C3D20 mesh, clamps, cyclic symmetry, a frequency step per nodal diameter).
+    Export {
+        /// Target format.
+        format: ExportTarget,
+        /// Model spec (JSON). Without it, the built-in default models are exported.
+        spec: Option<PathBuf>,
+        /// Output directory for the decks.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Print sizes, frequencies per nodal diameter and Ω dependence of a ROM file.
     Info {
         /// ROM file.
         file: PathBuf,
     },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ExportTarget {
+    Calculix,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -228,6 +244,20 @@ fn dispatch(command: Command) -> Result<(), AppError> {
                 Format::MatrixMarket => ImportFormat::MatrixMarket,
             };
             Ok(app::model_import(format, &spec, &output)?)
+        }
+        Command::Model {
+            action:
+                ModelAction::Export {
+                    format: ExportTarget::Calculix,
+                    spec,
+                    output,
+                },
+        } => {
+            let files = app::model_export(ExportFormat::Calculix, spec.as_deref(), &output)?;
+            for f in files {
+                eprintln!("wrote {}", f.display());
+            }
+            Ok(())
         }
         Command::Model {
             action: ModelAction::Info { file },

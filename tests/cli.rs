@@ -802,6 +802,40 @@ fn model_build_writes_nothing_when_one_model_is_invalid() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `model export calculix` refuses a bad spec naming the file and the field, and writes no
+/// deck when one component cannot be meshed (the casing here, after a valid impeller).
+#[test]
+fn model_export_names_the_bad_field_and_writes_nothing() {
+    let dir = tmp("modelexport");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("models.json");
+    let out = dir.join("out");
+    for (models, field) in [
+        (
+            serde_json::json!({"casing": {"geometry": {"n_sectorz": 12}}}),
+            "n_sectorz",
+        ),
+        (
+            serde_json::json!({"casing": {"geometry": {"n_sectors": 12, "elements_meridian": 7}}}),
+            "elements_meridian",
+        ),
+    ] {
+        std::fs::write(&spec, models.to_string()).unwrap();
+        let st = rubscan()
+            .args(["model", "export", "calculix"])
+            .arg(&spec)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = stderr(&st);
+        assert_eq!(st.status.code(), Some(1), "{err}");
+        assert!(err.contains("models.json") && err.contains(field), "{err}");
+        assert!(!out.exists(), "a deck was written: {err}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `model import` does not write its ROM over one of its inputs (it used to replace the
 /// import spec itself), and checks its damping before reading the matrices: both refused
 /// before the import, exit 1, the input unchanged.

@@ -16,4 +16,5 @@ pub(crate) mod recovery;
 mod recovery_check;
 pub mod reduction;
 pub mod rom;
+pub mod sector_modes;
 pub mod sparse_eigen;
