@@ -166,9 +166,19 @@ impl ControlFlexTable {
     /// The basis weights of the surface point `p` on the table's control net
     /// ([`ControlWeights`]), which [`ControlFlexTable::weighted_pair_block`] contracts.
     pub fn weights(&self, p: &crate::contact::SurfaceParam) -> ControlWeights {
-        use crate::contact::spline::{cubic_basis, real_row_weights};
-        let (u, _, _) = cubic_basis(p.u);
-        let (v, _, _) = cubic_basis(p.v);
+        self.weights_of(crate::contact::Along::Point, p)
+    }
+
+    /// [`ControlFlexTable::weights`] of the point or of its tangent along u or v: with them,
+    /// [`ControlFlexTable::weighted_pair_block`] gives `∂V(p, p_l)/∂u` or `∂V(p, p_l)/∂v`,
+    /// how the displacement under a force at `p_l` changes along the surface at `p`.
+    pub fn weights_of(
+        &self,
+        along: crate::contact::Along,
+        p: &crate::contact::SurfaceParam,
+    ) -> ControlWeights {
+        use crate::contact::spline::real_row_weights;
+        let (u, v) = along.bases(p);
         let (row, w) = real_row_weights(p.j, &v, self.m);
         ControlWeights {
             i: p.i,
