@@ -1025,6 +1025,39 @@ mod tests {
         }
     }
 
+    /// The node weights of the tangents give the tangents of `evaluate` (its control-point
+    /// sums with the basis' derivatives), on the free edges too, and `on_free_edge` finds
+    /// exactly the points of the first and last meridian boundary curves.
+    #[test]
+    fn node_weights_of_the_tangents_reproduce_the_surface_tangents() {
+        let (n, m) = (7, 4);
+        let nodes = revolution_nodes(n, m, |s| 0.3 + 0.02 * s, |s| 0.1 * s, 0.02, 21);
+        let (sp, q) = spline_and_q(n, m, &nodes);
+        let (mut wu, mut wv) = (vec![0.0; n], vec![0.0; m]);
+        let cases = [
+            (0, 0, 0.2, 0.0),
+            (6, 2, 0.9, 1.0),
+            (3, 1, 0.0, 0.4),
+            (5, 2, 0.5, 0.7),
+        ];
+        for &(i, j, u, v) in &cases {
+            let p = param(i, j, u, v);
+            let e = sp.evaluate(&q, &p).unwrap();
+            for (along, want) in [(Along::Point, e.s), (Along::U, e.su), (Along::V, e.sv)] {
+                sp.node_weight_factors_of(along, &p, &mut wu, &mut wv)
+                    .unwrap();
+                let got: Vector3<f64> =
+                    (0..n * m).map(|k| nodes[k] * (wu[k / m] * wv[k % m])).sum();
+                assert!(
+                    (got - want).norm() < 1e-13 * want.norm().max(1.0),
+                    "{along:?} at {p:?}: {got} vs {want}"
+                );
+            }
+            let edge = (j == 0 && v == 0.0) || (j == m - 2 && v == 1.0);
+            assert_eq!(sp.on_free_edge(&p), edge, "{p:?}");
+        }
+    }
+
     #[test]
     fn bad_inputs_are_errors() {
         assert_eq!(

@@ -784,6 +784,58 @@ mod tests {
         }
     }
 
+    /// The slopes `∂V(p, p_l)/∂u`, `∂V(p, p_l)/∂v` from the tangents' weights equal the
+    /// central differences of `V(p, p_l)` along the surface at `p` (the last patch's trailing
+    /// edge `v = 1` and the leading edge `v = 0` among the points, one-sided there).
+    #[test]
+    fn slope_blocks_are_the_derivatives_of_the_pair_blocks() {
+        use crate::contact::{Along, SurfaceParam};
+        use crate::dynamics::modal::ModalKernel;
+        use crate::dynamics::structure::Structure;
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 4, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let mut k = ModalKernel::new(&st, 0.2 * st.stability_limit()).unwrap();
+        let spline = CasingSpline::new(8, 4).unwrap();
+        let tab = ControlFlexTable::build(&mut k, &spline);
+        let p = |i, j, u, v| SurfaceParam { i, j, u, v };
+        let points = [p(2, 2, 0.4, 1.0), p(5, 0, 0.7, 0.0), p(0, 1, 0.5, 0.5)];
+        let load = p(3, 2, 0.3, 0.8);
+        let h = 1e-5;
+        for at in &points {
+            let wl = tab.weights(&load);
+            let block = |q: &SurfaceParam| tab.pair_block(q, &load);
+            let (up, um) = (
+                SurfaceParam { u: at.u + h, ..*at },
+                SurfaceParam { u: at.u - h, ..*at },
+            );
+            let du = (block(&up) - block(&um)) / (2.0 * h);
+            // One-sided at the edges, second order: (−3 f₀ + 4 f₁ − f₂) / 2h inward.
+            let s = if at.v >= 1.0 { -1.0 } else { 1.0 };
+            let dv = if at.v <= 0.0 || at.v >= 1.0 {
+                let at_v = |t: f64| {
+                    block(&SurfaceParam {
+                        v: at.v + s * t,
+                        ..*at
+                    })
+                };
+                (at_v(2.0 * h) * -1.0 + at_v(h) * 4.0 - at_v(0.0) * 3.0) * (s / (2.0 * h))
+            } else {
+                let at_v = |t: f64| block(&SurfaceParam { v: at.v + t, ..*at });
+                (at_v(h) - at_v(-h)) / (2.0 * h)
+            };
+            let su = tab.weighted_pair_block(&tab.weights_of(Along::U, at), &wl);
+            let sv = tab.weighted_pair_block(&tab.weights_of(Along::V, at), &wl);
+            for (got, want) in [(su, du), (sv, dv)] {
+                assert!(
+                    (got - want).norm() <= 1e-7 * want.norm(),
+                    "at {at:?}: {got} vs {want}"
+                );
+            }
+        }
+    }
+
     /// One table's pair blocks on the portable path equal those on the best path (to
     /// round-off: the portable path may not fuse its multiply-adds).
     #[test]

@@ -74,52 +74,84 @@ pub(super) fn edge_rows_of_w(
 
 /// Candidate k's gap (m) to the corrected casing where its closest point is pinned to a free
 /// edge. `at` is the closest point of `y = x − ΔS(p̂_k)` (the corrected tip node `x` moved
-/// back by the casing's correction there) on the predicted surface `S`; the corrected surface
-/// about it is `S + ΔS(p̂_k) + ΔS_u δu + ΔS_v δv`, with the slopes `ΔS_a = −Σ_l
+/// back by the casing's correction at `p̂_k`) on the predicted surface `S`; the corrected
+/// surface about `p̂_k` is `S + ΔS(p̂_k) + ΔS_u δu + ΔS_v δv`, with the slopes `ΔS_a = −Σ_l
 /// ∂V(p̂_k, p_l)/∂a F_l` over the loaded candidates (kept in `c.vslope` while `p̂_k` stays
 /// put). Two things differ from the translated surface at the edge, both at first order in
 /// the correction because `x − S` is not along the normal there: the normal turns, `n' ∝
 /// −(S_u + ΔS_u) × (S_v + ΔS_v)`, and the closest point slides along the edge, where
-/// `(S_u + ΔS_u) · (x − S')` vanishes instead of `S_u · (y − S)` (one Newton step along the
-/// edge, its Hessian the predicted surface's: the slide is ~1e-6 patch). The gap is `n' · (x
-/// − S')` there. `None` where `at` is not on a free edge or `y` does not overhang it: the
-/// translated surface's gap is exact there.
+/// `(S_u + ΔS_u) · (x − S')` vanishes instead of `S_u · (y − S)` (a Newton step along the
+/// edge, its Hessian the predicted surface's). The gap is `n' · (x − S')` there. Where the
+/// slide is long enough that the blocks taken at `p̂_k` would miss more than a quarter of
+/// `tol` (m) at the slid point (their change along it estimated by the slopes themselves, the
+/// flexibility varying over a patch), `p̂_k` moves there, its blocks are taken again and
+/// the step repeated (at most [`EDGE_SLIDES`] times). `None` where `at` is not on a free
+/// edge or `y` does not overhang it: the translated surface's gap is exact there.
 pub(super) fn edge_gap(
     cs: &CasingSide,
     f: &FlexibleCasing,
     c: &mut ContactProblem,
     k: usize,
-    (at, y): (&Projection, &Vector3<f64>),
+    (at, x, tol): (&Projection, &Vector3<f64>, f64),
 ) -> Result<Option<f64>, SimError> {
     if !cs.spline.on_free_edge(&at.param) {
         return Ok(None);
     }
-    let Some(r) = overhang(y, at) else {
+    let mut y = translated(*x, c, k);
+    if overhang(&y, at).is_none() {
         return Ok(None);
-    };
-    let nk = c.cands.len();
-    let phat = c.phat[k];
-    slopes_at(f, &cs.spline, c, (k, &phat), |c, l| c.lambda[l] != 0.0)?;
-    let (mut dsu, mut dsv) = (Vector3::zeros(), Vector3::zeros());
-    for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
-        if let (Some([vu, vv]), true) = (&c.vslope[k * nk + l], *lb != 0.0) {
-            let force = b.fdir * *lb;
-            dsu -= vu * force;
-            dsv -= vv * force;
-        }
     }
-    let p = at.param;
-    let e = cs.spline.eval_unchecked(&cs.q, p.i, p.j, p.u, p.v);
-    let (su, sv) = (e.su + dsu, e.sv + dsv);
-    // Along the edge to the corrected surface's closest point: `y − S` is `x` less the
-    // corrected surface point at `at`.
-    let hessian = su.dot(&su) - e.suu.dot(&r);
-    let du = su.dot(&r) / hessian;
-    let r = r - su * du - e.suu * (0.5 * du * du);
-    let (su, sv) = (su + e.suu * du, sv + e.suv * du);
-    let raw = -su.cross(&sv);
-    let normal = raw * (cs.spline.normal_sign() / raw.norm());
-    Ok(Some(normal.dot(&r)))
+    let nk = c.cands.len();
+    let mut p = at.param;
+    for slide in 1..=EDGE_SLIDES {
+        let phat = c.phat[k];
+        slopes_at(f, &cs.spline, c, (k, &phat), |c, l| c.lambda[l] != 0.0)?;
+        let (mut dsu, mut dsv) = (Vector3::zeros(), Vector3::zeros());
+        for (l, (b, lb)) in c.cands.iter().zip(&c.lambda).enumerate() {
+            if let (Some([vu, vv]), true) = (&c.vslope[k * nk + l], *lb != 0.0) {
+                let force = b.fdir * *lb;
+                dsu -= vu * force;
+                dsv -= vv * force;
+            }
+        }
+        let e = cs.spline.eval_unchecked(&cs.q, p.i, p.j, p.u, p.v);
+        let r = y - e.s;
+        let (su, sv) = (e.su + dsu, e.sv + dsv);
+        // Along the edge to the corrected surface's closest point: `y − S` is `x` less the
+        // corrected surface point at `p`.
+        let du = su.dot(&r) / (su.dot(&su) - e.suu.dot(&r));
+        let missed = (dsu.norm() + dsv.norm()) * du.abs() * (r.norm() / sv.norm() + du.abs());
+        if missed <= 0.25 * tol || slide == EDGE_SLIDES {
+            let r = r - su * du - e.suu * (0.5 * du * du);
+            let (su, sv) = (su + e.suu * du, sv + e.suv * du);
+            let raw = -su.cross(&sv);
+            let normal = raw * (cs.spline.normal_sign() / raw.norm());
+            return Ok(Some(normal.dot(&r)));
+        }
+        p = slid(&cs.spline, &p, du);
+        c.phat[k] = p;
+        c.vhat[k * nk..(k + 1) * nk].fill(None);
+        c.vslope[k * nk..(k + 1) * nk].fill(None);
+        casing_blocks_at(f, &cs.spline, c, k)?;
+        y = translated(*x, c, k);
+    }
+    unreachable!("the last slide returns")
+}
+
+/// Most Newton steps along a free edge per gap ([`edge_gap`]).
+const EDGE_SLIDES: usize = 3;
+
+/// The surface point `du` patch lengths from `p` along the circumference (wrapped around the
+/// closing line), on the same meridian patch and `v`.
+fn slid(spline: &CasingSpline, p: &SurfaceParam, du: f64) -> SurfaceParam {
+    let n = spline.n_sectors();
+    let g = (p.i as f64 + p.u + du).rem_euclid(n as f64);
+    let i = (g.floor() as usize).min(n - 1);
+    SurfaceParam {
+        i,
+        u: (g - i as f64).clamp(0.0, 1.0),
+        ..*p
+    }
 }
 
 /// The slopes `∂V(p, p_l)/∂u` and `∂V(p, p_l)/∂v` (m/N per unit of patch coordinate, global)

@@ -825,7 +825,7 @@ fn corrected_gaps(
             at = reproject(cs, &y, (&mut c.local[k], c.phat[k]), p, time)?;
         }
         c.phat[k] = at.param;
-        c.d[k] = free_edge::edge_gap(cs, flexible, c, k, (&at, &y))?.unwrap_or(at.gap);
+        c.d[k] = free_edge::edge_gap(cs, flexible, c, k, (&at, &x, tol))?.unwrap_or(at.gap);
     }
     Ok(())
 }
