@@ -2,13 +2,15 @@
 //! casing surface, its closest point is pinned to the edge and its gap `d = n · (x − S)` is
 //! measured along the edge's normal from a point `x − S` that is not along that normal. The
 //! casing's correction then changes the gap at first order not only by moving the surface
-//! (`−n · ΔS`, the translation that box 4b models) but by turning its normal:
-//! `δn · (x − S)`, with `δn = −(n · ΔS_u) a^u − (n · ΔS_v) a^v` (`a^u`, `a^v` the dual basis
-//! of the tangents `S_u`, `S_v`). Away from the edges `x − S` lies along `n` and `δn · n` is
-//! of second order, so the translation alone is exact there to the Newton iterations'
-//! order. Here: the slopes `∂V/∂u`, `∂V/∂v` of the casing's flexibility at a surface point,
-//! the edge rows of `W` with the normal's rotation, and the corrected gap at an edge on the
-//! corrected surface's own normal.
+//! (`−n · ΔS`, the translation that box 4b models) but by turning its normal,
+//! `δn · (x − S)` with `δn = −(n · ΔS_u) a^u − (n · ΔS_v) a^v` (`a^u`, `a^v` the dual basis
+//! of the tangents `S_u`, `S_v`), and by sliding the closest point along the edge (where the
+//! distance, not the gap, is stationary). Away from the edges `x − S` lies along `n`, `δn · n`
+//! is of second order and the gap is stationary along the surface, so the translation alone
+//! is exact there to the Newton iterations' order. Here: the slopes `∂V/∂u`, `∂V/∂v` of the
+//! casing's flexibility at a surface point, the edge rows of `W` with the normal's rotation,
+//! and the corrected gap at an edge, at the corrected closest point along the corrected
+//! surface's own normal.
 
 use super::*;
 use crate::contact::Along;
