@@ -11,4 +11,4 @@ pub use projection::{
     DEFAULT_EPS_NR, GapBounds, LocalSurface, NodeProjectionError, Projection, ProjectionError,
     closest_point, closest_point_local, friction_direction, project_nodes,
 };
-pub use spline::{CasingSpline, PatchEval, SplineError, SurfaceParam};
+pub use spline::{Along, CasingSpline, PatchEval, SplineError, SurfaceParam};

@@ -142,6 +142,32 @@ pub fn cubic_basis(t: f64) -> (Vector4<f64>, Vector4<f64>, Vector4<f64>) {
     (b, d, dd)
 }
 
+/// What a surface point's basis weights give: the point `S` itself or its tangent along the
+/// circumference (`S_u`) or the meridian (`S_v`), per unit of patch coordinate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Along {
+    /// `S(u, v)`.
+    Point,
+    /// `∂S/∂u`.
+    U,
+    /// `∂S/∂v`.
+    V,
+}
+
+impl Along {
+    /// The four circumferential and four meridional basis weights of patch coordinates
+    /// `(p.u, p.v)` for this quantity: values, or the derivative along the one direction.
+    pub fn bases(self, p: &SurfaceParam) -> (Vector4<f64>, Vector4<f64>) {
+        let (bu, du, _) = cubic_basis(p.u);
+        let (bv, dv, _) = cubic_basis(p.v);
+        match self {
+            Along::Point => (bu, bv),
+            Along::U => (du, bv),
+            Along::V => (bu, dv),
+        }
+    }
+}
+
 /// Weights on the *real* control rows `1..=M` of a patch's four meridional basis values
 /// `cv` (control rows `j..j+4`, paper eq. 13): the ghost rows are folded back by eq. (10),
 /// `Q[c][0] = 2Q[c][1] − Q[c][2]`, `Q[c][M+1] = 2Q[c][M] − Q[c][M−1]`. Returns the first
@@ -452,11 +478,23 @@ impl CasingSpline {
         wu: &mut [f64],
         wv: &mut [f64],
     ) -> Result<(), SplineError> {
+        self.node_weight_factors_of(Along::Point, p, wu, wv)
+    }
+
+    /// [`CasingSpline::node_weight_factors`] of the point (`Along::Point`) or of its
+    /// tangent `S_u` or `S_v` (per unit of patch coordinate): `∂S/∂u (p) = Σ_n w_n P_n`
+    /// with the weights of the basis' derivative along u, and likewise along v.
+    pub fn node_weight_factors_of(
+        &self,
+        along: Along,
+        p: &SurfaceParam,
+        wu: &mut [f64],
+        wv: &mut [f64],
+    ) -> Result<(), SplineError> {
         self.check_patch(p.i, p.j)?;
         check_len("wu", self.n, wu.len())?;
         check_len("wv", self.m, wv.len())?;
-        let (bu, _, _) = cubic_basis(p.u);
-        let (bv, _, _) = cubic_basis(p.v);
+        let (bu, bv) = along.bases(p);
         let (n, m) = (self.n, self.m);
         wu.iter_mut().for_each(|e| *e = 0.0);
         wv.iter_mut().for_each(|e| *e = 0.0);
@@ -471,6 +509,13 @@ impl CasingSpline {
             }
         }
         Ok(())
+    }
+
+    /// Whether `p` lies on a free edge of the surface, `V = j + v` at 0 (leading edge) or at
+    /// `M − 1` (trailing edge), where [`crate::contact::closest_point`] clamps the closest
+    /// point.
+    pub fn on_free_edge(&self, p: &SurfaceParam) -> bool {
+        (p.j == 0 && p.v <= 0.0) || (p.j + 2 == self.m && p.v >= 1.0)
     }
 
     /// Dense per-node weights `w` (length `N·M`, node index `i·M + j`) with
@@ -977,6 +1022,39 @@ mod tests {
             assert!((s - sn).norm() < 1e-13, "{s} vs {sn}");
             // Partition of unity: translating all nodes translates the surface.
             assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-13);
+        }
+    }
+
+    /// The node weights of the tangents give the tangents of `evaluate` (its control-point
+    /// sums with the basis' derivatives), on the free edges too, and `on_free_edge` finds
+    /// exactly the points of the first and last meridian boundary curves.
+    #[test]
+    fn node_weights_of_the_tangents_reproduce_the_surface_tangents() {
+        let (n, m) = (7, 4);
+        let nodes = revolution_nodes(n, m, |s| 0.3 + 0.02 * s, |s| 0.1 * s, 0.02, 21);
+        let (sp, q) = spline_and_q(n, m, &nodes);
+        let (mut wu, mut wv) = (vec![0.0; n], vec![0.0; m]);
+        let cases = [
+            (0, 0, 0.2, 0.0),
+            (6, 2, 0.9, 1.0),
+            (3, 1, 0.0, 0.4),
+            (5, 2, 0.5, 0.7),
+        ];
+        for &(i, j, u, v) in &cases {
+            let p = param(i, j, u, v);
+            let e = sp.evaluate(&q, &p).unwrap();
+            for (along, want) in [(Along::Point, e.s), (Along::U, e.su), (Along::V, e.sv)] {
+                sp.node_weight_factors_of(along, &p, &mut wu, &mut wv)
+                    .unwrap();
+                let got: Vector3<f64> =
+                    (0..n * m).map(|k| nodes[k] * (wu[k / m] * wv[k % m])).sum();
+                assert!(
+                    (got - want).norm() < 1e-13 * want.norm().max(1.0),
+                    "{along:?} at {p:?}: {got} vs {want}"
+                );
+            }
+            let edge = (j == 0 && v == 0.0) || (j == m - 2 && v == 1.0);
+            assert_eq!(sp.on_free_edge(&p), edge, "{p:?}");
         }
     }
 

@@ -166,9 +166,19 @@ impl ControlFlexTable {
     /// The basis weights of the surface point `p` on the table's control net
     /// ([`ControlWeights`]), which [`ControlFlexTable::weighted_pair_block`] contracts.
     pub fn weights(&self, p: &crate::contact::SurfaceParam) -> ControlWeights {
-        use crate::contact::spline::{cubic_basis, real_row_weights};
-        let (u, _, _) = cubic_basis(p.u);
-        let (v, _, _) = cubic_basis(p.v);
+        self.weights_of(crate::contact::Along::Point, p)
+    }
+
+    /// [`ControlFlexTable::weights`] of the point or of its tangent along u or v: with them,
+    /// [`ControlFlexTable::weighted_pair_block`] gives `∂V(p, p_l)/∂u` or `∂V(p, p_l)/∂v`,
+    /// how the displacement under a force at `p_l` changes along the surface at `p`.
+    pub fn weights_of(
+        &self,
+        along: crate::contact::Along,
+        p: &crate::contact::SurfaceParam,
+    ) -> ControlWeights {
+        use crate::contact::spline::real_row_weights;
+        let (u, v) = along.bases(p);
         let (row, w) = real_row_weights(p.j, &v, self.m);
         ControlWeights {
             i: p.i,
@@ -770,6 +780,58 @@ mod tests {
                 // Maxwell–Betti, which the contact matrix assembly relies on.
                 let (v, vt) = (tab.pair_block(pk, pl), tab.pair_block(pl, pk).transpose());
                 assert!((v - vt).norm() <= 1e-10 * v.norm(), "{v} vs {vt}");
+            }
+        }
+    }
+
+    /// The slopes `∂V(p, p_l)/∂u`, `∂V(p, p_l)/∂v` from the tangents' weights equal the
+    /// central differences of `V(p, p_l)` along the surface at `p` (the last patch's trailing
+    /// edge `v = 1` and the leading edge `v = 0` among the points, one-sided there).
+    #[test]
+    fn slope_blocks_are_the_derivatives_of_the_pair_blocks() {
+        use crate::contact::{Along, SurfaceParam};
+        use crate::dynamics::modal::ModalKernel;
+        use crate::dynamics::structure::Structure;
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 4, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let mut k = ModalKernel::new(&st, 0.2 * st.stability_limit()).unwrap();
+        let spline = CasingSpline::new(8, 4).unwrap();
+        let tab = ControlFlexTable::build(&mut k, &spline);
+        let p = |i, j, u, v| SurfaceParam { i, j, u, v };
+        let points = [p(2, 2, 0.4, 1.0), p(5, 0, 0.7, 0.0), p(0, 1, 0.5, 0.5)];
+        let load = p(3, 2, 0.3, 0.8);
+        let h = 1e-5;
+        for at in &points {
+            let wl = tab.weights(&load);
+            let block = |q: &SurfaceParam| tab.pair_block(q, &load);
+            let (up, um) = (
+                SurfaceParam { u: at.u + h, ..*at },
+                SurfaceParam { u: at.u - h, ..*at },
+            );
+            let du = (block(&up) - block(&um)) / (2.0 * h);
+            // One-sided at the edges, second order: (−3 f₀ + 4 f₁ − f₂) / 2h inward.
+            let s = if at.v >= 1.0 { -1.0 } else { 1.0 };
+            let dv = if at.v <= 0.0 || at.v >= 1.0 {
+                let at_v = |t: f64| {
+                    block(&SurfaceParam {
+                        v: at.v + s * t,
+                        ..*at
+                    })
+                };
+                (at_v(2.0 * h) * -1.0 + at_v(h) * 4.0 - at_v(0.0) * 3.0) * (s / (2.0 * h))
+            } else {
+                let at_v = |t: f64| block(&SurfaceParam { v: at.v + t, ..*at });
+                (at_v(h) - at_v(-h)) / (2.0 * h)
+            };
+            let su = tab.weighted_pair_block(&tab.weights_of(Along::U, at), &wl);
+            let sv = tab.weighted_pair_block(&tab.weights_of(Along::V, at), &wl);
+            for (got, want) in [(su, du), (sv, dv)] {
+                assert!(
+                    (got - want).norm() <= 1e-7 * want.norm(),
+                    "at {at:?}: {got} vs {want}"
+                );
             }
         }
     }

@@ -10,7 +10,7 @@
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
-    CasingSpline, GapBounds, LocalSurface, NodeProjectionError, Projection, SurfaceParam,
+    Along, CasingSpline, GapBounds, LocalSurface, NodeProjectionError, Projection, SurfaceParam,
     closest_point, closest_point_local, friction_direction, project_nodes,
 };
 use crate::dynamics::abradable::{AbradableError, CoatingLaw, CoatingLayer, ElementUpdate};
@@ -796,7 +796,9 @@ fn corrected_gaps(
             }
             let first;
             (first, c.local[k]) = project_one(cs, &(x + t0), cd.param, p, time)?;
-            if c.lambda[k] == 0.0 && first.gap > 2.0 * t0.norm() + tol {
+            // At a free edge the normal's rotation moves the gap too (`free_edge`).
+            let pinned = cs.spline.on_free_edge(&first.param);
+            if c.lambda[k] == 0.0 && !pinned && first.gap > 2.0 * t0.norm() + tol {
                 // Open whatever the blocks where it projects; looked at again after a new λ.
                 c.d[k] = first.gap;
                 continue;
@@ -804,7 +806,7 @@ fn corrected_gaps(
             (c.phat[k], c.blocks_taken[k], shift) = (first.param, true, Some(t0));
         }
         casing_blocks_at(flexible, &cs.spline, c, k)?;
-        let y = translated(x, c, k);
+        let mut y = translated(x, c, k);
         if let Some(t0) = shift {
             // How fast the casing's correction changes along the surface (m per unit of
             // patch coordinates): from p_k to p̂_k.
@@ -817,12 +819,13 @@ fn corrected_gaps(
         if stale > 0.25 * tol {
             c.phat[k] = at.param;
             c.vhat[k * nk..(k + 1) * nk].fill(None);
+            c.vslope[k * nk..(k + 1) * nk].fill(None);
             casing_blocks_at(flexible, &cs.spline, c, k)?;
-            let y = translated(x, c, k);
+            y = translated(x, c, k);
             at = reproject(cs, &y, (&mut c.local[k], c.phat[k]), p, time)?;
         }
         c.phat[k] = at.param;
-        c.d[k] = at.gap;
+        c.d[k] = free_edge::edge_gap(cs, flexible, c, k, (&at, &x, tol))?.unwrap_or(at.gap);
     }
     Ok(())
 }
@@ -913,8 +916,8 @@ fn casing_blocks_at(
                 spline,
                 &pair,
                 &mut blocks,
-                &mut c.wu,
-                &mut c.wv,
+                (&mut c.wu, &mut c.wv),
+                Along::Point,
             )?;
             for l in 0..nk {
                 c.vhat[k * nk + l] = Some(blocks[l + 1]);
@@ -964,6 +967,9 @@ struct ContactProblem {
     /// Box 4b: `V(p̂_k, p_l)` between the point `p̂_k` where candidate k projects after the
     /// correction and the load points, computed once per step when first needed.
     vhat: Vec<Option<Matrix3<f64>>>,
+    /// Their slopes along the surface at `p̂_k`, `∂V(p̂_k, p_l)/∂u` and `/∂v`, where candidate
+    /// k overhangs a free edge (see `free_edge`).
+    vslope: Vec<Option<[Matrix3<f64>; 2]>>,
     /// `p̂_k` of each candidate, whether its blocks are taken there, and whether it was
     /// found open with a margin (box 4b).
     phat: Vec<SurfaceParam>,
@@ -1020,6 +1026,7 @@ impl ContactProblem {
             ],
             weights: vec![ControlWeights::default(); nn],
             vhat: vec![None; nn * nn],
+            vslope: vec![None; nn * nn],
             blocks_taken: vec![false; nn],
             local: vec![LocalSurface::default(); nn],
             translation_rate: vec![0.0; nn],
@@ -1600,7 +1607,7 @@ impl<'a> Simulation<'a> {
             }
             Kernel::Dense { flexibility, .. } => {
                 let nbi = self.blades.nb;
-                dense_w(flexibility, &c.cands, nk, w, |cd, row, is_f| {
+                dense_w(flexibility, &c.cands, nk, w, |_, cd, row, is_f| {
                     let v = if is_f { cd.f_loc } else { cd.g_loc };
                     let at = cd.blade * nbi + 3 * cd.row;
                     row[at..at + 3].copy_from_slice(v.as_slice());
@@ -1611,6 +1618,7 @@ impl<'a> Simulation<'a> {
             && let Some(f) = &cs.flexible
         {
             casing_w(f, &cs.spline, c, nk)?;
+            free_edge::edge_rows_of_w(cs, f, c, &self.blades.nodes, &self.projector.proj)?;
         }
         let tol = self.casing.gap_tolerance();
         c.laws.clear();
@@ -1657,6 +1665,7 @@ impl<'a> Simulation<'a> {
         let nk = self.contact.cands.len();
         let c = &mut self.contact;
         c.vhat[..nk * nk].fill(None);
+        c.vslope[..nk * nk].fill(None);
         c.blocks_taken[..nk].fill(false);
         for iteration in 0..=GAP_NEWTON_ITERATIONS {
             let c = &mut self.contact;
@@ -2009,7 +2018,8 @@ fn casing_w(
         }
         Kernel::Dense { flexibility, .. } => {
             let (cands, blocks) = (&c.cands, &mut c.vblk[..nk * nk]);
-            dense_pair_blocks(f, flexibility, spline, cands, blocks, &mut c.wu, &mut c.wv)?;
+            let weights = (&mut c.wu[..], &mut c.wv[..]);
+            dense_pair_blocks(f, flexibility, spline, cands, blocks, weights, Along::Point)?;
             for (k, a) in c.cands.iter().enumerate() {
                 for (l, b) in c.cands.iter().enumerate() {
                     w[k * nk + l] += a.n.dot(&(c.vblk[k * nk + l] * b.fdir));
@@ -2022,15 +2032,17 @@ fn casing_w(
 
 /// The dense casing's flexibility blocks `V(k, l)` (m/N, global) between the surface points
 /// of `cands` (row-major `nk × nk`): `e_aᵀ V(k, l) e_b = g_a(p_k) H g_b(p_l)ᵀ` with the spline
-/// weights of each point spread over the contact nodes in their sector frames (eq. 18).
+/// weights of each point spread over the contact nodes in their sector frames (eq. 18). With
+/// `first` along u or v, the rows of the first point take the weights of the tangent there
+/// (`∂V(p_0, p_l)/∂u` or `/∂v` in the first row of blocks, see `free_edge`).
 fn dense_pair_blocks(
     f: &FlexibleCasing,
     flexibility: &Mat<f64>,
     spline: &CasingSpline,
     cands: &[Cand],
     blocks: &mut [Matrix3<f64>],
-    wu: &mut [f64],
-    wv: &mut [f64],
+    (wu, wv): (&mut [f64], &mut [f64]),
+    first: Along,
 ) -> Result<(), SimError> {
     let nk = cands.len();
     let (ncs, mc) = (f.frames.rot.len(), f.frames.rest_rows.len());
@@ -2045,21 +2057,32 @@ fn dense_pair_blocks(
         })
         .collect();
     let mut v = vec![0.0; 9 * nk * nk];
-    dense_w(flexibility, &unit, 3 * nk, &mut v, |cd, row, _| {
-        if let Err(e) = spline.node_weight_factors(&cd.param, wu, wv) {
-            failed = Some(e);
-            return;
-        }
-        for i in 0..ncs {
-            let vl = f.frames.rot[i].transpose() * cd.n;
-            for j in 0..mc {
-                let wgt = -wu[i] * wv[j];
-                for d in 0..3 {
-                    row[i * nbc + 3 * j + d] = wgt * vl[d];
+    dense_w(
+        flexibility,
+        &unit,
+        3 * nk,
+        &mut v,
+        |row_of, cd, row, is_f| {
+            let along = if row_of < 3 && !is_f {
+                first
+            } else {
+                Along::Point
+            };
+            if let Err(e) = spline.node_weight_factors_of(along, &cd.param, wu, wv) {
+                failed = Some(e);
+                return;
+            }
+            for i in 0..ncs {
+                let vl = f.frames.rot[i].transpose() * cd.n;
+                for j in 0..mc {
+                    let wgt = -wu[i] * wv[j];
+                    for d in 0..3 {
+                        row[i * nbc + 3 * j + d] = wgt * vl[d];
+                    }
                 }
             }
-        }
-    });
+        },
+    );
     if let Some(e) = failed {
         return Err(SimError::Spline(e.to_string()));
     }
@@ -2160,13 +2183,14 @@ fn fill_blade_nodes(
     }
 }
 
-/// Dense `W += G H Fᵀ` with full boundary rows produced by `fill(cand, row, is_force_row)`.
+/// Dense `W += G H Fᵀ` with full boundary rows produced by `fill(k, cand, row,
+/// is_force_row)` for the k-th of `cands`.
 fn dense_w(
     hmat: &Mat<f64>,
     cands: &[Cand],
     nk: usize,
     w: &mut [f64],
-    mut fill: impl FnMut(&Cand, &mut [f64], bool),
+    mut fill: impl FnMut(usize, &Cand, &mut [f64], bool),
 ) {
     let n = hmat.nrows();
     let mut g = Mat::<f64>::zeros(nk, n);
@@ -2174,12 +2198,12 @@ fn dense_w(
     let mut row = vec![0.0; n];
     for (k, cd) in cands.iter().enumerate() {
         row.iter_mut().for_each(|x| *x = 0.0);
-        fill(cd, &mut row, false);
+        fill(k, cd, &mut row, false);
         for (c, v) in row.iter().enumerate() {
             g[(k, c)] = *v;
         }
         row.iter_mut().for_each(|x| *x = 0.0);
-        fill(cd, &mut row, true);
+        fill(k, cd, &mut row, true);
         for (c, v) in row.iter().enumerate() {
             f[(c, k)] = *v;
         }
@@ -2415,6 +2439,7 @@ impl CasingFrames {
 }
 
 mod coating_stage;
+mod free_edge;
 mod record;
 mod runaway_watch;
 #[cfg(test)]
