@@ -20,12 +20,14 @@
 //! Needs `ccx` (Debian `calculix-ccx`) on the PATH; without it the test fails when the
 //! environment variable `CI` is set and prints a skip note otherwise (as `tests/rotor37.rs`).
 
+mod common;
+use common::{Scratch, find_on_path, skip_or_fail};
 use rubscan::io::calculix_dat::{distinct_pairs, read_cyclic_frequencies};
 use rubscan::model::build::{ModelSpec, build_casing, build_impeller};
 use rubscan::model::mesh::SectorMesh;
 use rubscan::model::rom::CyclicRom;
 use rubscan::model::sector_modes::unreduced_frequencies;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -35,29 +37,6 @@ const MODES: usize = 5;
 const TOLERANCE: f64 = 1e-3;
 /// Fixed-interface modes per nodal diameter of the ROMs under test (impeller, casing).
 const ROM_MODES: [usize; 2] = [30, 30];
-
-fn find_ccx() -> Option<PathBuf> {
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .map(|d| d.join("ccx"))
-        .find(|p| p.is_file())
-}
-
-/// Skips (prints why) unless `CI` is set, in which case a missing prerequisite fails.
-fn skip_or_fail(why: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("{why} (required because CI is set)");
-    }
-    eprintln!("SKIPPED calculix_export: {why}");
-}
-
-/// Removes the scratch folder even if the test fails.
-struct Scratch(PathBuf);
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 /// Runs `ccx job` in `dir` (one thread); returns the wall time.
 fn run_ccx(ccx: &Path, dir: &Path, job: &str) -> Duration {
@@ -214,8 +193,11 @@ fn spec_modes(spec: &ModelSpec, component: &str) -> usize {
 
 #[test]
 fn calculix_cyclic_solve_of_the_exported_decks_matches_rubscan() {
-    let Some(ccx) = find_ccx() else {
-        return skip_or_fail("ccx (Debian calculix-ccx) is not on the PATH");
+    let Some(ccx) = find_on_path(&["ccx"]) else {
+        return skip_or_fail(
+            "calculix_export",
+            "ccx (Debian calculix-ccx) is not on the PATH",
+        );
     };
     let dir = std::env::temp_dir().join(format!("rubscan-ccx-export-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -10,6 +10,8 @@
 //! test; without it the test fails when the environment variable `CI` is set and prints a
 //! skip note otherwise (as the CalculiX tests do).
 
+mod common;
+use common::{find_on_path, skip_or_fail};
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -69,22 +71,6 @@ fn page_figures(html: &str) -> Vec<String> {
         .skip(1)
         .map(|s| s[..s.find('"').unwrap()].to_string())
         .collect()
-}
-
-/// Skips (prints why) unless `CI` is set, in which case a missing prerequisite fails.
-fn skip_or_fail(why: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("{why} (required because CI is set)");
-    }
-    eprintln!("SKIPPED report browser check: {why}");
-}
-
-fn find_chromium() -> Option<PathBuf> {
-    let path = std::env::var_os("PATH")?;
-    ["chromium", "chromium-browser", "google-chrome"]
-        .iter()
-        .flat_map(|name| std::env::split_paths(&path).map(move |d| d.join(name)))
-        .find(|p| p.is_file())
 }
 
 /// An 8-bit screenshot.
@@ -224,8 +210,11 @@ fn loaded_images(img: &Image) -> usize {
 /// own box with plot colours (a figure without data, all axes and text, fails); with
 /// `broken`, the same page with its images broken is checked to fail the same test.
 fn check_in_browser(dir: &Path, out: &Path, figures: &[String], broken: bool) {
-    let Some(chromium) = find_chromium() else {
-        skip_or_fail("chromium (Debian chromium) is not on the PATH");
+    let Some(chromium) = find_on_path(&["chromium", "chromium-browser", "google-chrome"]) else {
+        skip_or_fail(
+            "report browser check",
+            "chromium (Debian chromium) is not on the PATH",
+        );
         return;
     };
     let shot = screenshot(&chromium, &out.join("index.html"), &dir.join("shot.png"));

@@ -13,9 +13,11 @@
 //! looked up in `$RUBSCAN_ROTOR37_DIR`, then `../shared/rotor37` and `../../shared/rotor37`
 //! relative to the package (the second one serves git worktrees under `wt/<name>`).
 
+mod common;
 use arrow_array::cast::AsArray;
 use arrow_array::types::Float64Type;
 use arrow_array::{Array, RecordBatch};
+use common::{Scratch, find_on_path, skip_or_fail};
 use nalgebra::{DMatrix, Vector3};
 use rubscan::io::calculix::{
     CalculixImportSpec, ContactSelection, Units, import_calculix, read_calculix_mesh,
@@ -49,29 +51,6 @@ fn model_dir() -> Option<PathBuf> {
         .iter()
         .map(|r| root.join(r))
         .find(|d| d.join("blade.inp").is_file())
-}
-
-fn find_ccx() -> Option<PathBuf> {
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .map(|d| d.join("ccx"))
-        .find(|p| p.is_file())
-}
-
-/// Skips (prints why) unless `CI` is set, in which case a missing prerequisite fails.
-fn skip_or_fail(why: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("{why} (required because CI is set)");
-    }
-    eprintln!("SKIPPED rotor37: {why}");
-}
-
-/// Removes the scratch folder (≈ 250 MB of matrices) even if the test fails.
-struct Scratch(PathBuf);
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
 }
 
 /// Frequencies (Hz, time unit s) of the first `*FREQUENCY` step printed in a CalculiX `.dat`.
@@ -174,7 +153,7 @@ fn setup() -> Result<Imported, Unavailable> {
     let src = model_dir().ok_or(Unavailable::Skip(
         "model folder shared/rotor37 not found".into(),
     ))?;
-    let ccx = find_ccx().ok_or(Unavailable::Skip(
+    let ccx = find_on_path(&["ccx"]).ok_or(Unavailable::Skip(
         "ccx (Debian calculix-ccx) is not on the PATH".into(),
     ))?;
     let fail = |what: &str, e: &dyn std::fmt::Display| Unavailable::Failed(format!("{what}: {e}"));
@@ -242,7 +221,7 @@ fn imported() -> Option<&'static Imported> {
     match FIXTURE.get_or_init(setup) {
         Ok(i) => Some(i),
         Err(Unavailable::Skip(why)) => {
-            skip_or_fail(why);
+            skip_or_fail("rotor37", why);
             None
         }
         Err(Unavailable::Failed(why)) => panic!("{why}"),

@@ -33,6 +33,19 @@ pub(crate) struct SectorTopology<'a> {
     pub clamped_nodes: &'a [usize],
 }
 
+impl<'a> SectorTopology<'a> {
+    /// The cyclic topology of a built-in sector mesh.
+    pub(crate) fn of(mesh: &'a super::mesh::SectorMesh) -> Self {
+        SectorTopology {
+            n_sectors: mesh.n_sectors,
+            n_nodes: mesh.nodes.len(),
+            left_nodes: &mesh.left_nodes,
+            right_nodes: &mesh.right_nodes,
+            clamped_nodes: &mesh.clamped_nodes,
+        }
+    }
+}
+
 /// Inconsistent sector topology; every variant names the offending data.
 #[derive(Debug, Error, PartialEq)]
 pub enum CyclicError {

@@ -29,13 +29,7 @@ fn worst_static_recovery_error(mesh: &SectorMesh, rotating: bool, modes: usize) 
     };
     let rom: CyclicRom = reduce_cyclic(mesh, &mats, &opts).unwrap();
     assert_eq!(rom.recovery.nodes.len(), mesh.named_nodes.len());
-    let topo = SectorTopology {
-        n_sectors: mesh.n_sectors,
-        n_nodes: mesh.nodes.len(),
-        left_nodes: &mesh.left_nodes,
-        right_nodes: &mesh.right_nodes,
-        clamped_nodes: &mesh.clamped_nodes,
-    };
+    let topo = SectorTopology::of(mesh);
     let map = CyclicDofMap::new(&topo, &mesh.contact_nodes).unwrap();
     let (n_sec, ni, nb) = (mesh.n_sectors, map.n_independent(), map.n_first());
     let full = map

@@ -197,13 +197,7 @@ pub(crate) fn reduce_cyclic(
     opts: &ReductionOptions,
 ) -> Result<CyclicRom, ReductionError> {
     let model = SectorModel {
-        topology: SectorTopology {
-            n_sectors: mesh.n_sectors,
-            n_nodes: mesh.nodes.len(),
-            left_nodes: &mesh.left_nodes,
-            right_nodes: &mesh.right_nodes,
-            clamped_nodes: &mesh.clamped_nodes,
-        },
+        topology: SectorTopology::of(mesh),
         nodes: &mesh.nodes,
         contact_nodes: &mesh.contact_nodes,
         stiffness: &mats.stiffness,

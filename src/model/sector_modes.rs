@@ -53,13 +53,7 @@ pub fn unreduced_frequencies(
     n_modes: usize,
 ) -> Result<Vec<Vec<f64>>, SectorModesError> {
     let mats = assemble_sector(mesh, false)?;
-    let topo = SectorTopology {
-        n_sectors: mesh.n_sectors,
-        n_nodes: mesh.nodes.len(),
-        left_nodes: &mesh.left_nodes,
-        right_nodes: &mesh.right_nodes,
-        clamped_nodes: &mesh.clamped_nodes,
-    };
+    let topo = SectorTopology::of(mesh);
     let map = CyclicDofMap::new(&topo, &[])?;
     (0..=mesh.n_sectors / 2)
         .into_par_iter()

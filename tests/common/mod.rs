@@ -3,7 +3,7 @@
 
 use arrow_array::RecordBatch;
 use rubscan::sweep::table::read_results;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// The `rubscan` binary under test, run from the crate root and outside any Slurm job: the
@@ -42,4 +42,30 @@ pub fn table_without_timing(dir: &Path) -> Vec<RecordBatch> {
             b.project(&keep).unwrap()
         })
         .collect()
+}
+
+/// The first of `names` found as a file in a folder of the PATH (names tried in order).
+pub fn find_on_path(names: &[&str]) -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    names
+        .iter()
+        .flat_map(|name| std::env::split_paths(&path).map(move |d| d.join(name)))
+        .find(|p| p.is_file())
+}
+
+/// Skips `test` (prints why) unless `CI` is set, in which case a missing prerequisite fails.
+pub fn skip_or_fail(test: &str, why: &str) {
+    if std::env::var_os("CI").is_some() {
+        panic!("{why} (required because CI is set)");
+    }
+    eprintln!("SKIPPED {test}: {why}");
+}
+
+/// Removes a scratch folder when dropped, even if the test fails.
+pub struct Scratch(pub PathBuf);
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
