@@ -73,7 +73,10 @@ fn hermitian_part<T: ComplexField<Real = f64>>(a: MatRef<'_, T>) -> Mat<T> {
     })
 }
 
-fn cholesky_route<T: ComplexField<Real = f64>>(
+/// All eigenpairs of a small dense Hermitian-definite pencil by the Cholesky route, ascending,
+/// `M`-normalized; with `symmetrize`, `K`, `M` and the reduced matrix are first made exactly
+/// Hermitian (they are computed products, Hermitian only to round-off).
+pub(crate) fn cholesky_route<T: ComplexField<Real = f64>>(
     k: MatRef<'_, T>,
     m: MatRef<'_, T>,
     symmetrize: bool,
