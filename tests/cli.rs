@@ -528,7 +528,8 @@ fn a_coating_too_thick_for_the_casing_is_refused_before_any_job_runs() {
 }
 
 /// A coating too stiff for the explicit step at one grid point (the limit k·w < 1 that the
-/// time loop needs) is refused by `run` before any job runs: exit status 1, the message names
+/// paper's formulation needs; the massless boundary solves the coating force with the
+/// displacement) is refused by `run` before any job runs: exit status 1, the message names
 /// the grid field, the job and the reason, and nothing is written.
 #[test]
 fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
@@ -539,6 +540,10 @@ fn a_coating_too_stiff_for_the_step_is_refused_before_any_job_runs() {
         "spec",
         serde_json::json!({"young": {"scale": [1.0, 1e6]}}),
     );
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&spec).unwrap()).unwrap();
+    v["numerics"]["boundary"] = "mass".into();
+    std::fs::write(&spec, v.to_string()).unwrap();
     let out = dir.join("out");
     let expect = [
         "/grid/coating/young",

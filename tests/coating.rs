@@ -50,6 +50,7 @@ fn case(material: CoatingMaterial, eta: usize, clearance: [f64; 2], duration: f6
             time_step: Some(1e-7),
             kernel: KernelChoice::Fast,
             decimation: 20,
+            boundary: Boundary::Mass,
             ..Default::default()
         },
         coating: Some(CoatingCase {

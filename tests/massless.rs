@@ -3,7 +3,9 @@
 //! quickstart's two-lobe case at Ω = 3000 rad/s, μ = 0.15, the paper's h = 1e-7 s against
 //! the massless boundary at its default step (10 steps per period of the highest dynamic
 //! mode, at least 1000 per revolution), with every retained mode and with a 50 kHz mode
-//! cutoff. Shortened to 8 ms (the load ramps over 4 ms, then is released).
+//! cutoff. Shortened to 8 ms (the load ramps over 4 ms, then is released). On the paper's
+//! ROM, 10 fixed-interface modes per nodal diameter on both components (the figures the
+//! README quotes); the comparison on converged ROMs is `python/benches/rom_convergence.py`.
 
 use rubscan::analysis::spectra::SpectrumAnalyzer;
 use rubscan::dynamics::abradable::CoatingMaterial;
@@ -13,6 +15,9 @@ use rubscan::model::build::{CasingSpec, ImpellerSpec};
 use rubscan::{Case, CasingModel, Numerics, SimulationOutput, casing_rom, impeller_rom, simulate};
 
 const OMEGA: f64 = 3000.0;
+
+/// The paper's fixed-interface modes per nodal diameter.
+const PAPER_MODES: usize = 10;
 
 /// The case at step `h` (the default step when `None`), with an optional mode cutoff (Hz).
 fn run(boundary: Boundary, h: Option<f64>, cutoff: Option<f64>) -> SimulationOutput {
@@ -27,13 +32,7 @@ fn run_case(
     cutoff: Option<f64>,
     coating: Option<CoatingCase>,
 ) -> SimulationOutput {
-    run_with_modes(
-        boundary,
-        h,
-        cutoff,
-        coating,
-        ImpellerSpec::default().modes_per_diameter,
-    )
+    run_with_modes(boundary, h, cutoff, coating, PAPER_MODES)
 }
 
 /// [`run_case`] on a built-in impeller with `modes` fixed-interface modes per nodal diameter.
@@ -49,7 +48,11 @@ fn run_with_modes(
         ..Default::default()
     })
     .unwrap();
-    let cas = casing_rom(&CasingSpec::default()).unwrap();
+    let cas = casing_rom(&CasingSpec {
+        modes_per_diameter: PAPER_MODES,
+        ..Default::default()
+    })
+    .unwrap();
     let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap() + 1;
     let clearance_offset = coating
         .as_ref()

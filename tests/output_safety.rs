@@ -163,6 +163,38 @@ fn run_refuses_another_sweeps_directory_and_resumes_a_grown_grid_of_the_same_swe
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// A directory written before the formulation became part of a job's identity (its manifest
+/// has no `job_identity`) is refused by `run` and `merge`, naming why and what to do, and its
+/// results are kept byte for byte.
+#[test]
+fn run_and_merge_refuse_a_directory_of_an_older_job_identity() {
+    let spec = sweep_b();
+    let old = tmp("identity1");
+    run_sweep(&spec, &opts(&old, None), &SyntheticSimulator::default()).unwrap();
+    let path = old.join("manifest.json");
+    let mut manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(manifest["job_identity"], 2);
+    manifest.as_object_mut().unwrap().remove("job_identity");
+    std::fs::write(&path, manifest.to_string()).unwrap();
+    let before = snapshot(&old);
+    let err = refused(&spec, &old, None);
+    assert_names(
+        &err,
+        &[
+            &old.display().to_string(),
+            "job identity 1",
+            "mass-carrying boundary was the default",
+            "give another -o",
+            "\"boundary\": \"mass\"",
+        ],
+    );
+    let err = merge(std::slice::from_ref(&old), &tmp("identity1-merged")).unwrap_err();
+    assert_names(&format!("{err:#}"), &["merge", "job identity 1"]);
+    assert_eq!(snapshot(&old), before, "the old results were rewritten");
+    std::fs::remove_dir_all(old).unwrap();
+}
+
 #[test]
 fn run_refuses_an_unreadable_manifest_in_its_output_directory() {
     let dir = tmp("bad-manifest");

@@ -12,8 +12,8 @@ use nalgebra::DMatrix;
 use rubscan::dynamics::probes::{ProbeComponent, ProbeQuantity, ProbeSpec};
 use rubscan::dynamics::structure::Structure;
 use rubscan::dynamics::{
-    Case, CasingModel, InitialVelocity, KernelChoice, LobeLoad, Numerics, SimulationOutput,
-    simulate,
+    Boundary, Case, CasingModel, InitialVelocity, KernelChoice, LobeLoad, Numerics,
+    SimulationOutput, simulate,
 };
 use rubscan::fixtures::{SyntheticSpec, synthetic_rom};
 use rubscan::model::rom::{ComplexRows, Component, CyclicRom, Recovery, RecoveryNode};
@@ -132,6 +132,7 @@ fn run(kernel: KernelChoice) -> SimulationOutput {
             newton_tolerance: 1e-10,
             kernel,
             decimation: 1,
+            boundary: Boundary::Mass,
             ..Default::default()
         },
         coating: None,

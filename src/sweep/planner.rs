@@ -8,7 +8,12 @@
 //!
 //! Job id: FNV-1a 64-bit hash of the canonical JSON (keys sorted, no whitespace,
 //! floats in serde_json's shortest round-trip form) of
-//! `{"params": …, "models": …, "scenario": …, "numerics": …}`, printed as 16 hex digits.
+//! `{"identity": JOB_IDENTITY, "params": …, "models": …, "scenario": …, "numerics": …}`,
+//! printed as 16 hex digits. Everything that decides the numbers is in it: the formulation
+//! (`numerics.boundary`, always written), the time step (given, or the default rule, whose
+//! revision is [`JOB_IDENTITY`]) and, for built-in models, the modes per nodal diameter (the
+//! whole build spec is written, defaults filled in). A change of a default bumps
+//! [`JOB_IDENTITY`], and a run refuses an output directory written under another one.
 //! The sweep name, description and the job's position are *not* hashed, so
 //! renaming a sweep, reordering axes or extending a grid keeps the ids (and the
 //! finished results) of the jobs that did not change. ROM paths enter the hash by
@@ -133,10 +138,16 @@ pub struct Plan {
     pub total_steps: Option<u64>,
 }
 
+/// Revision of what a job id stands for (module docs). 2: the massless boundary became the
+/// default and the formulation is always written (1: the paper's formulation was the
+/// unwritten default).
+pub const JOB_IDENTITY: u32 = 2;
+
 /// Stable id of a job from its parameters and the shared context (see module docs).
 pub fn job_id(params: &JobParams, context_json: &Value) -> String {
     let mut doc = context_json.clone();
     if let Value::Object(m) = &mut doc {
+        m.insert("identity".into(), JOB_IDENTITY.into());
         // Serialization of plain structs/f64 into Value cannot fail.
         m.insert(
             "params".into(),
@@ -545,6 +556,37 @@ mod tests {
         s4.scenario.duration_s = 0.02;
         let p4 = plan(&s4).unwrap();
         assert!(p4.jobs.iter().all(|j| !ids1.contains(&j.id.as_str())));
+    }
+
+    /// The formulation, the step and the modes per nodal diameter are part of a job's identity,
+    /// the default formulation too: a spec that says `"massless"` and one that says nothing
+    /// give the same ids, `"mass"` other ones, and so do another step or mode count.
+    #[test]
+    fn formulation_step_and_modes_are_part_of_the_id() {
+        use crate::dynamics::numerics::Boundary;
+        use crate::sweep::spec::ModelSource;
+        let g =
+            serde_json::json!({"speed": {"unit": "rad_s", "values": [10.0]}, "friction": [0.1]});
+        let id = |s: &SweepSpec| plan(s).unwrap().jobs[0].id.clone();
+        let base = spec(g.clone());
+        assert_eq!(base.numerics.boundary, Boundary::Massless);
+        let context = serde_json::to_value(&base.numerics).unwrap();
+        assert_eq!(context["boundary"], "massless", "the default is written");
+        let mut explicit = spec(g.clone());
+        explicit.numerics.boundary = Boundary::Massless;
+        assert_eq!(id(&explicit), id(&base));
+        let mut mass = spec(g.clone());
+        mass.numerics.boundary = Boundary::Mass;
+        let mut step = spec(g.clone());
+        step.numerics.time_step = Some(5e-5);
+        let mut modes = spec(g);
+        let ModelSource::Builtin(imp) = &mut modes.models.impeller else {
+            panic!("built-in impeller")
+        };
+        imp.modes_per_diameter += 1;
+        let ids = [id(&base), id(&mass), id(&step), id(&modes)];
+        let distinct: std::collections::HashSet<_> = ids.iter().collect();
+        assert_eq!(distinct.len(), 4, "{ids:?}");
     }
 
     fn refined_grid(speeds: &[f64], refine: bool) -> SweepSpec {

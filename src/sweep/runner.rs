@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::checkpoint::{JobRecord, Outcomes, read_record, write_json_atomic, write_record};
-use super::planner::{Job, Plan};
+use super::planner::{JOB_IDENTITY, Job, Plan};
 use super::rounds::refined_plan;
 use super::slurm::shard_dirs;
 use super::spec::SweepSpec;
@@ -129,6 +129,10 @@ pub struct MergeSummary {
 pub struct Manifest {
     /// rubscan version that wrote the output.
     pub rubscan_version: String,
+    /// [`JOB_IDENTITY`] of the job ids in `jobs/` (1 when absent: written before it was
+    /// recorded).
+    #[serde(default = "first_job_identity")]
+    pub job_identity: u32,
     /// Sweep name.
     pub sweep: String,
     /// The spec (ROM paths resolved).
@@ -383,6 +387,35 @@ fn read_records<'a>(
     (records, unreadable)
 }
 
+fn first_job_identity() -> u32 {
+    1
+}
+
+/// Refuses a directory whose job ids stand for something else than today's
+/// ([`JOB_IDENTITY`]): its records cannot be matched to a plan, and its spec was read with
+/// today's defaults, not the ones it ran with.
+fn check_job_identity(dir: &Path, m: &Manifest) -> Result<()> {
+    if m.job_identity == JOB_IDENTITY {
+        return Ok(());
+    }
+    let why = if m.job_identity < JOB_IDENTITY {
+        "an older rubscan, when the paper's mass-carrying boundary was the default and the \
+         formulation was not part of a job's identity"
+    } else {
+        "a newer rubscan"
+    };
+    bail!(
+        "{} holds results of sweep \"{}\" written by rubscan {} under job identity {} (by {why}); \
+         this rubscan's is {JOB_IDENTITY}, so its jobs cannot be resumed or merged: keep it as \
+         it is and give another -o, or move it away to run the sweep again (add \"boundary\": \
+         \"mass\" to the spec's numerics for the paper's formulation)",
+        dir.display(),
+        m.sweep,
+        m.rubscan_version,
+        m.job_identity
+    )
+}
+
 /// How a manifest names the part of the plan its directory holds.
 fn shard_label(shard: Option<(usize, usize)>) -> String {
     shard.map_or("the unsharded run".into(), |(i, n)| {
@@ -412,6 +445,7 @@ pub fn check_output_dir(out: &Path, spec: &SweepSpec, shard: Option<(usize, usiz
     let Some(m) = recorded else {
         return Ok(());
     };
+    check_job_identity(out, &m)?;
     if m.sweep != spec.name {
         bail!(
             "{} holds another sweep's results, those of sweep \"{}\" (its manifest.json), not of \
@@ -669,6 +703,7 @@ impl ManifestContext<'_> {
         let complete = summary.unfinished == 0;
         let manifest = Manifest {
             rubscan_version: env!("CARGO_PKG_VERSION").into(),
+            job_identity: JOB_IDENTITY,
             sweep: self.spec.name.clone(),
             spec: self.spec.clone(),
             shard: self.opts.shard,
@@ -734,6 +769,11 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
             shard_dirs[0].display()
         );
     };
+    for (d, m) in shard_dirs.iter().zip(&manifests) {
+        if let Some(m) = m {
+            check_job_identity(d, m).context("merge")?;
+        }
+    }
     let spec_json = canonical_json(&serde_json::to_value(&manifest.spec)?);
     for (d, m) in shard_dirs.iter().zip(&manifests) {
         if let Some(m) = m
@@ -788,6 +828,7 @@ pub fn merge(shard_dirs: &[PathBuf], out_dir: &Path) -> Result<MergeSummary> {
     };
     let out_manifest = Manifest {
         rubscan_version: env!("CARGO_PKG_VERSION").into(),
+        job_identity: JOB_IDENTITY,
         sweep: manifest.sweep.clone(),
         spec: manifest.spec.clone(),
         shard: None,

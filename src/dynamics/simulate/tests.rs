@@ -115,7 +115,7 @@ fn lobe_case(h: f64, mu: f64, kernel: KernelChoice, eps: f64) -> Case {
             newton_tolerance: eps,
             kernel,
             decimation: 5,
-            boundary: Default::default(),
+            boundary: Boundary::Mass,
             mode_cutoff_hz: None,
             stop_on_runaway: true,
         },
@@ -293,6 +293,7 @@ fn single_oscillator_impacting_a_rigid_cylinder_matches_the_analytic_solution() 
         time_step: Some(h),
         decimation: 1,
         newton_tolerance: 1e-12,
+        boundary: Boundary::Mass,
         ..Default::default()
     };
     let case = thrown_case(vec![v0, 0.0, 0.0], 3.0 * 2.0 * PI / w, numerics, None);
@@ -564,6 +565,7 @@ fn single_oscillator_against_an_imposed_gap_matches_the_analytic_solution() {
         numerics: Numerics {
             time_step: Some(h),
             decimation: 1,
+            boundary: Boundary::Mass,
             ..Default::default()
         },
         coating: None,

@@ -843,6 +843,11 @@ mod tests {
     fn a_mode_cutoff_needs_a_massless_boundary_and_a_positive_frequency() {
         let mut v = base();
         v["numerics"]["mode_cutoff_hz"] = serde_json::json!(5e4);
+        assert!(
+            spec_from_value(v.clone()).is_ok(),
+            "the default boundary is massless"
+        );
+        v["numerics"]["boundary"] = serde_json::json!("mass");
         let i = issues_of(v.clone());
         assert!(
             i.iter()
