@@ -164,10 +164,10 @@ fn run_refuses_another_sweeps_directory_and_resumes_a_grown_grid_of_the_same_swe
 }
 
 /// A directory written before the formulation became part of a job's identity (its manifest
-/// has no `job_identity`) is refused by `run` and `merge`, naming why and what to do, and its
-/// results are kept byte for byte.
+/// has no `job_identity`) is refused by `run`, `merge` and `status`, naming why and what to
+/// do, and its results are kept byte for byte.
 #[test]
-fn run_and_merge_refuse_a_directory_of_an_older_job_identity() {
+fn run_merge_and_status_refuse_a_directory_of_an_older_job_identity() {
     let spec = sweep_b();
     let old = tmp("identity1");
     run_sweep(&spec, &opts(&old, None), &SyntheticSimulator::default()).unwrap();
@@ -191,6 +191,8 @@ fn run_and_merge_refuse_a_directory_of_an_older_job_identity() {
     );
     let err = merge(std::slice::from_ref(&old), &tmp("identity1-merged")).unwrap_err();
     assert_names(&format!("{err:#}"), &["merge", "job identity 1"]);
+    let err = rubscan::sweep::status::status(&old).unwrap_err();
+    assert_names(&format!("{err:#}"), &["job identity 1", "give another -o"]);
     assert_eq!(snapshot(&old), before, "the old results were rewritten");
     std::fs::remove_dir_all(old).unwrap();
 }

@@ -25,7 +25,8 @@
 //! no cost from the next Krylov block; once every wanted pair's estimate `‖C ψ − θ ψ‖ ≤
 //! tolerance · θ` holds, the pairs are mapped back and the true residuals checked; if one
 //! fails, the pairs are refined (below), and if that fails too the space keeps growing.
-//! Eigenvalues are accurate to about the square of the residual (Rayleigh quotients). Small problems take the same route: the Krylov space then
+//! Eigenvalues are accurate to about the square of the residual (Rayleigh quotients).
+//! Small problems take the same route: the Krylov space then
 //! fills the whole space and Rayleigh–Ritz is exact. There is deliberately no dense shortcut:
 //! the dense Cholesky route of [`crate::model::eigen`] factors `M` and works on
 //! `L_M⁻¹ K L_M⁻ᴴ`, whose norm (up to ~1e15 on the built-in Hex20 sectors) leaves the lowest

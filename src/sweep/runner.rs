@@ -394,7 +394,7 @@ fn first_job_identity() -> u32 {
 /// Refuses a directory whose job ids stand for something else than today's
 /// ([`JOB_IDENTITY`]): its records cannot be matched to a plan, and its spec was read with
 /// today's defaults, not the ones it ran with.
-fn check_job_identity(dir: &Path, m: &Manifest) -> Result<()> {
+pub(super) fn check_job_identity(dir: &Path, m: &Manifest) -> Result<()> {
     if m.job_identity == JOB_IDENTITY {
         return Ok(());
     }

@@ -13,7 +13,9 @@ use super::checkpoint::read_record;
 use super::checkpoint::{JobStatus, Outcomes};
 use super::planner::Job;
 use super::rounds::refined_plan;
-use super::runner::{Manifest, load_records, read_manifest, read_manifest_if_any};
+use super::runner::{
+    Manifest, check_job_identity, load_records, read_manifest, read_manifest_if_any,
+};
 use super::slurm::shard_dirs;
 
 /// Progress of one output directory (a shard, or the whole sweep).
@@ -130,6 +132,7 @@ fn units(out: &Path) -> Result<(Manifest, Vec<Unit>)> {
 /// `shards/<i>-of-<n>`).
 pub fn status(out: &Path) -> Result<SweepStatus> {
     let (manifest, units) = units(out)?;
+    check_job_identity(out, &manifest)?;
     // A refined sweep's plan grows round by round with the jobs finished in any shard.
     let dirs: Vec<&PathBuf> = units.iter().map(|(_, d)| d).collect();
     let finished = |job: &Job| {
