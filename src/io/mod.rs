@@ -6,7 +6,9 @@
 pub mod atomic;
 pub mod calculix;
 pub mod calculix_dat;
+pub mod calculix_deck;
 pub mod calculix_export;
+pub mod calculix_sector;
 pub mod content_hash;
 pub mod matrix_market;
 pub mod model_cache;

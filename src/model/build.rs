@@ -115,15 +115,17 @@ impl ModelSpec {
     }
 }
 
-/// Assembles and reduces one built-in component: the shared tail of [`build_casing`] and
-/// [`build_impeller`]; `spec` is recorded as the ROM's provenance.
-fn reduce_built_in(
+/// Assembles a sector mesh and reduces it (cyclic Craig–Bampton, `modes_per_diameter`
+/// fixed-interface modes per nodal diameter, modal data at every speed of `omega_grid`, rad/s;
+/// the impeller's K(Ω) = K0 + Ω² K1 from its centrifugal prestress): the shared tail of the
+/// built-in models and of the cyclic CalculiX import. `name` is stored in the ROM.
+pub fn reduce_sector(
     component: Component,
-    mesh: Result<SectorMesh, MeshError>,
+    mesh: &SectorMesh,
     modes_per_diameter: usize,
     omega_grid: Vec<f64>,
     damping: Damping,
-    spec: &impl Serialize,
+    name: String,
 ) -> Result<CyclicRom, BuildError> {
     let (label, rotating) = match component {
         Component::Casing => ("casing", false),
@@ -134,11 +136,7 @@ fn reduce_built_in(
             "{label}.modes_per_diameter must be at least 1"
         )));
     }
-    let mesh = mesh.map_err(|source| BuildError::Mesh {
-        component: label,
-        source,
-    })?;
-    let mats = assemble_sector(&mesh, rotating).map_err(|source| BuildError::Fe {
+    let mats = assemble_sector(mesh, rotating).map_err(|source| BuildError::Fe {
         component: label,
         source,
     })?;
@@ -146,16 +144,63 @@ fn reduce_built_in(
         modes_per_diameter,
         omega_grid,
         component,
-        name: format!("built-in {label}"),
+        name,
         damping,
         recovery_points: mesh.named_nodes.clone(),
     };
-    let mut rom = reduce_cyclic(&mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
+    reduce_cyclic(mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
+        component: label,
+        source,
+    })
+}
+
+/// Builds and reduces one built-in component ([`reduce_sector`]); `spec` is recorded as the
+/// ROM's provenance.
+fn reduce_built_in(
+    component: Component,
+    mesh: Result<SectorMesh, MeshError>,
+    modes_per_diameter: usize,
+    omega_grid: Vec<f64>,
+    damping: Damping,
+    spec: &impl Serialize,
+) -> Result<CyclicRom, BuildError> {
+    let label = match component {
+        Component::Casing => "casing",
+        Component::Impeller => "impeller",
+    };
+    let mesh = mesh.map_err(|source| BuildError::Mesh {
         component: label,
         source,
     })?;
+    let name = format!("built-in {label}");
+    let mut rom = reduce_sector(
+        component,
+        &mesh,
+        modes_per_diameter,
+        omega_grid,
+        damping,
+        name,
+    )?;
     rom.provenance = serde_json::json!({ "builtin": spec, "rubscan": env!("CARGO_PKG_VERSION") });
     Ok(rom)
+}
+
+/// Checks a grid of rotation speeds (rad/s) for the impeller's modal data: finite, ≥ 0 and
+/// strictly increasing (the Campbell data are interpolated along it); `field` names it.
+pub fn check_omega_grid(field: &str, grid: &[f64]) -> Result<(), BuildError> {
+    if grid.iter().any(|w| !w.is_finite() || *w < 0.0) {
+        return Err(BuildError::Invalid(format!(
+            "{field}: speeds must be finite and ≥ 0"
+        )));
+    }
+    if let Some(i) = (1..grid.len()).find(|&i| grid[i] <= grid[i - 1]) {
+        return Err(BuildError::Invalid(format!(
+            "{field}: speeds must be strictly increasing, entry {i} ({} rad/s) follows {} rad/s",
+            grid[i],
+            grid[i - 1]
+        )));
+    }
+    Ok(())
 }
 
 /// Builds the casing ROM: mesh, FE assembly, cyclic Craig–Bampton.
@@ -172,21 +217,7 @@ pub fn build_casing(spec: &CasingSpec) -> Result<CyclicRom, BuildError> {
 
 /// Builds the impeller ROM with centrifugal stiffening `K(Ω) = K0 + Ω² K1`.
 pub fn build_impeller(spec: &ImpellerSpec) -> Result<CyclicRom, BuildError> {
-    let grid = &spec.omega_grid_rad_s;
-    if grid.iter().any(|w| !w.is_finite() || *w < 0.0) {
-        return Err(BuildError::Invalid(
-            "impeller.omega_grid_rad_s: speeds must be finite and ≥ 0".into(),
-        ));
-    }
-    // The Campbell data are interpolated along the grid.
-    if let Some(i) = (1..grid.len()).find(|&i| grid[i] <= grid[i - 1]) {
-        return Err(BuildError::Invalid(format!(
-            "impeller.omega_grid_rad_s: speeds must be strictly increasing, entry {i} ({} rad/s) \
-             follows {} rad/s",
-            grid[i],
-            grid[i - 1]
-        )));
-    }
+    check_omega_grid("impeller.omega_grid_rad_s", &spec.omega_grid_rad_s)?;
     let grid = spec.omega_grid_rad_s.clone();
     reduce_built_in(
         Component::Impeller,

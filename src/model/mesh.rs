@@ -126,7 +126,7 @@ pub struct SectorMesh {
 #[derive(Clone, Debug, PartialEq)]
 pub struct NamedNode {
     /// Name a probe gives (`leading_edge_mid_span`, …).
-    pub name: &'static str,
+    pub name: String,
     /// Index of the node in the sector mesh.
     pub node: usize,
 }
@@ -618,7 +618,7 @@ impl CasingGeometry {
             clamped_nodes: clamped,
             material: self.material,
             named_nodes: vec![NamedNode {
-                name: OUTER_MID_MERIDIAN,
+                name: OUTER_MID_MERIDIAN.into(),
                 node: blk
                     .get(self.elements_meridian, 0, d2 - 1)
                     .expect("corner-line nodes exist"),
@@ -942,11 +942,11 @@ impl ImpellerGeometry {
             material: self.material,
             named_nodes: vec![
                 NamedNode {
-                    name: LEADING_EDGE_MID_SPAN,
+                    name: LEADING_EDGE_MID_SPAN.into(),
                     node: blade.get(0, 1, mid).expect(on_edge),
                 },
                 NamedNode {
-                    name: TRAILING_EDGE_MID_SPAN,
+                    name: TRAILING_EDGE_MID_SPAN.into(),
                     node: blade.get(2 * nm, 1, mid).expect(on_edge),
                 },
             ],

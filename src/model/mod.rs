@@ -16,5 +16,6 @@ pub(crate) mod recovery;
 mod recovery_check;
 pub mod reduction;
 pub mod rom;
+pub mod sector_faces;
 pub mod sector_modes;
 pub mod sparse_eigen;

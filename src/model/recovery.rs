@@ -61,7 +61,7 @@ pub(crate) fn recovery_of(
             .map(|p| RecoveryNode {
                 id: p.node,
                 position: nodes[p.node],
-                name: Some(p.name.to_string()),
+                name: Some(p.name.clone()),
             })
             .collect(),
         rows,

@@ -112,7 +112,11 @@ fn built_in_named_nodes_recover_the_full_360_static_solution() {
     }
     .build()
     .unwrap();
-    let names: Vec<&str> = impeller.named_nodes.iter().map(|p| p.name).collect();
+    let names: Vec<&str> = impeller
+        .named_nodes
+        .iter()
+        .map(|p| p.name.as_str())
+        .collect();
     assert_eq!(names, ["leading_edge_mid_span", "trailing_edge_mid_span"]);
     let e = worst_static_recovery_error(&impeller, true, 6);
     println!("impeller (4 blades): worst relative recovery error {e:.2e}");
