@@ -14,6 +14,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use crate::dynamics::simulate::default_time_step;
 use crate::dynamics::{Boundary, SimError, Simulation};
 use crate::io::calculix::{CalculixImportSpec, import_calculix};
+use crate::io::calculix_sector::{CalculixSectorSpec, import_calculix_sector};
 use crate::io::matrix_market::{MatrixMarketImportSpec, import_matrix_market};
 use crate::io::timeseries::TimeSeriesWriter;
 use crate::sweep::checkpoint::read_record;
@@ -1057,6 +1058,14 @@ pub fn model_import(format: ImportFormat, spec_path: &Path, output: &Path) -> Re
             check_damping(&spec.damping)?;
             import_matrix_market(&spec)?
         }
+        ImportFormat::CalculixCyclic => {
+            let mut spec: CalculixSectorSpec =
+                serde_json::from_str(&text).with_context(|| spec_path.display().to_string())?;
+            spec.deck = base.join(&spec.deck);
+            refuse_output_among(&[spec_path, &spec.deck])?;
+            check_damping(&spec.damping)?;
+            import_calculix_sector(&spec)?
+        }
     };
     rom_file::save(&rom, output)?;
     eprintln!(
@@ -1074,6 +1083,9 @@ pub enum ImportFormat {
     Calculix,
     /// Matrix Market `.mtx` with a DOF map and a node table.
     MatrixMarket,
+    /// A cyclic sector's CalculiX input deck (C3D20 mesh, cyclic faces), assembled and
+    /// reduced by rubscan ([`crate::io::calculix_sector`]).
+    CalculixCyclic,
 }
 
 #[cfg(test)]

@@ -165,7 +165,8 @@ enum ModelAction {
         #[arg(short, long, default_value = "results/models")]
         output: PathBuf,
     },
-    /// Import an FE model (CalculiX matrix storage or Matrix Market) and reduce it.
+    /// Import an FE model and reduce it: one component from CalculiX matrix storage or Matrix
+    /// Market, or a cyclic sector from a CalculiX deck (`calculix-cyclic`).
     Import {
         /// Source format.
         format: Format,
@@ -202,6 +203,7 @@ enum ExportTarget {
 enum Format {
     Calculix,
     MatrixMarket,
+    CalculixCyclic,
 }
 
 fn main() -> ExitCode {
@@ -242,6 +244,7 @@ fn dispatch(command: Command) -> Result<(), AppError> {
             let format = match format {
                 Format::Calculix => ImportFormat::Calculix,
                 Format::MatrixMarket => ImportFormat::MatrixMarket,
+                Format::CalculixCyclic => ImportFormat::CalculixCyclic,
             };
             Ok(app::model_import(format, &spec, &output)?)
         }

@@ -498,11 +498,6 @@ fn snap_right_face(nodes: &mut [[f64; 3]], left: &[usize], right: &[usize], n: u
     largest
 }
 
-/// Resolves the spec's relative deck path against `base` (the spec file's folder).
-pub fn resolve_paths(spec: &mut CalculixSectorSpec, base: &Path) {
-    spec.deck = base.join(&spec.deck);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -414,12 +414,12 @@ fn cyclic_nd0_map(mesh: &SectorMesh) -> (Vec<Vec<(usize, f64)>>, usize) {
     for &c in &mesh.clamped_nodes {
         kind[c] = Kind::Clamped;
     }
-    // A right node whose left partner is clamped is itself fixed.
-    for i in 0..nn {
-        if let Kind::Right(l) = kind[i]
-            && kind[l] == Kind::Clamped
-        {
-            kind[i] = Kind::Clamped;
+    // A clamp on either node of a cyclic pair fixes both, as in the reduction's
+    // [`crate::model::cyclic::CyclicDofMap`]: u_right = R(α) u_left = 0.
+    for (&l, &r) in mesh.left_nodes.iter().zip(&mesh.right_nodes) {
+        if kind[l] == Kind::Clamped || kind[r] == Kind::Clamped {
+            kind[l] = Kind::Clamped;
+            kind[r] = Kind::Clamped;
         }
     }
     let mut idx = vec![usize::MAX; nn];
@@ -765,6 +765,54 @@ pub(crate) mod tests {
         assert!(err.abs() < 0.01);
         // square section: the two bending directions are degenerate
         assert!((lam[1] - lam[0]).abs() < 1e-6 * lam[0]);
+    }
+
+    /// The prestress holds a clamped cyclic pair at zero whichever of its two nodes carries
+    /// the clamp (a CalculiX deck cannot clamp a tie's slave node, so it clamps the master).
+    #[test]
+    fn a_clamp_on_either_node_of_a_cyclic_pair_gives_the_same_prestress() {
+        let mesh = crate::model::mesh::ImpellerGeometry::default()
+            .build()
+            .unwrap();
+        let partner: std::collections::HashMap<usize, usize> = mesh
+            .left_nodes
+            .iter()
+            .copied()
+            .zip(mesh.right_nodes.iter().copied())
+            .collect();
+        let mut moved = mesh.clone();
+        let clamps: std::collections::BTreeSet<usize> = mesh
+            .clamped_nodes
+            .iter()
+            .map(|c| partner.get(c).copied().unwrap_or(*c))
+            .collect();
+        moved.clamped_nodes = clamps.into_iter().collect();
+        assert_ne!(
+            moved.clamped_nodes, mesh.clamped_nodes,
+            "the bore has left-face nodes"
+        );
+        // The built-in bore clamps both nodes of each pair, so its ROM is the same either way.
+        let right_clamped = mesh
+            .clamped_nodes
+            .iter()
+            .filter(|c| mesh.right_nodes.contains(c));
+        assert_eq!(
+            right_clamped.count(),
+            mesh.clamped_nodes
+                .iter()
+                .filter(|c| partner.contains_key(c))
+                .count()
+        );
+        let k1 = |m: &SectorMesh| {
+            assemble_sector(m, true)
+                .unwrap()
+                .centrifugal
+                .unwrap()
+                .to_dense()
+        };
+        let (a, b) = (k1(&mesh), k1(&moved));
+        let rel = (&a - &b).norm_l2() / a.norm_l2();
+        assert!(rel < 1e-12, "relative difference of K1: {rel:e}");
     }
 
     #[test]
