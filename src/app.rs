@@ -243,6 +243,7 @@ pub enum ExportFormat {
 pub fn model_export(
     format: ExportFormat,
     spec: Option<&Path>,
+    prestress_rad_s: &[f64],
     output: &Path,
 ) -> Result<Vec<PathBuf>> {
     use crate::io::calculix_export::{
@@ -250,6 +251,12 @@ pub fn model_export(
     };
     let ExportFormat::Calculix = format;
     let label = spec.map_or("built-in defaults".to_string(), |p| p.display().to_string());
+    if let Some(w) = prestress_rad_s
+        .iter()
+        .find(|w| !(w.is_finite() && **w > 0.0))
+    {
+        bail!("--omega {w}: a prestress speed must be a finite number of rad/s above 0");
+    }
     let spec = read_model_spec(spec)?;
     let meshes = [
         ("impeller", spec.impeller.geometry.build()),
@@ -264,10 +271,26 @@ pub fn model_export(
         let opts = FrequencyDeck {
             model_file: model_file.clone(),
             modes_per_diameter: DEFAULT_CALCULIX_MODES,
+            omega_rad_s: 0.0,
         };
         files.push((output.join(&model_file), model));
         let freq = output.join(format!("{component}_frequencies.inp"));
         files.push((freq, frequency_deck(&mesh, &opts)));
+        if component == "impeller" {
+            for &omega in prestress_rad_s {
+                let deck = frequency_deck(
+                    &mesh,
+                    &FrequencyDeck {
+                        omega_rad_s: omega,
+                        ..opts.clone()
+                    },
+                );
+                files.push((
+                    output.join(format!("impeller_prestressed_{omega}.inp")),
+                    deck,
+                ));
+            }
+        }
     }
     for (path, text) in &files {
         crate::io::atomic::write_atomic(path, text.as_bytes())

@@ -183,6 +183,10 @@ enum ModelAction {
         format: ExportTarget,
         /// Model spec (JSON). Without it, the built-in default models are exported.
         spec: Option<PathBuf>,
+        /// Also write the impeller's prestressed frequency deck at this speed (rad/s;
+        /// repeatable): `impeller_prestressed_<speed>.inp`.
+        #[arg(long = "omega", value_name = "RAD_S")]
+        omegas: Vec<f64>,
         /// Output directory for the decks.
         #[arg(short, long)]
         output: PathBuf,
@@ -253,10 +257,12 @@ fn dispatch(command: Command) -> Result<(), AppError> {
                 ModelAction::Export {
                     format: ExportTarget::Calculix,
                     spec,
+                    omegas,
                     output,
                 },
         } => {
-            let files = app::model_export(ExportFormat::Calculix, spec.as_deref(), &output)?;
+            let files =
+                app::model_export(ExportFormat::Calculix, spec.as_deref(), &omegas, &output)?;
             for f in files {
                 eprintln!("wrote {}", f.display());
             }

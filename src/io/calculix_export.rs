@@ -11,7 +11,10 @@
 //!   clamps (`*BOUNDARY`), the cyclic faces as node surfaces tied by
 //!   `*TIE, CYCLIC SYMMETRY` and `*CYCLIC SYMMETRY MODEL` about `+z` through the origin;
 //! - the *frequency* deck (`<name>_frequencies.inp`): `*INCLUDE`s the model and adds one
-//!   `*FREQUENCY` step over every nodal diameter `0..=N/2` at rest (Ω = 0, no prestress).
+//!   `*FREQUENCY` step over every nodal diameter `0..=N/2` at rest (Ω = 0, no prestress);
+//! - the *prestressed* deck (`impeller_prestressed_<Ω>.inp`, per speed asked for): a linear
+//!   `*STATIC` step under `CENTRIF` about +z, then the same frequency step as its
+//!   `PERTURBATION`.
 //!
 //! # Correspondence with rubscan's model
 //! - Element: rubscan's Hex20 node order *is* CalculiX's C3D20 order (corners as C3D8, then
@@ -107,6 +110,10 @@ pub struct FrequencyDeck {
     pub model_file: String,
     /// Eigenvalues CalculiX computes per nodal diameter (the `*FREQUENCY` data line).
     pub modes_per_diameter: usize,
+    /// Rotation speed of the prestress, rad/s about +z: 0 solves at rest; otherwise a linear
+    /// `*STATIC` step under `CENTRIF` (Ω²) comes first and the frequency step is its
+    /// perturbation (stress stiffening, spin softening and initial-displacement stiffness).
+    pub omega_rad_s: f64,
 }
 
 /// Number of eigenvalues per nodal diameter the exported frequency deck asks CalculiX for:
@@ -277,17 +284,30 @@ pub fn model_deck(mesh: &SectorMesh, component: &str) -> Result<String, ExportEr
 }
 
 /// The frequency deck: includes the model deck and asks for `modes_per_diameter` eigenvalues
-/// of every nodal diameter 0..=N/2 at rest (`*SELECT CYCLIC SYMMETRY MODES`); CalculiX prints
-/// them per nodal diameter in the job's `.dat` file.
+/// of every nodal diameter 0..=N/2 (`*SELECT CYCLIC SYMMETRY MODES`), at rest or prestressed
+/// at `opts.omega_rad_s`; CalculiX prints them per nodal diameter in the job's `.dat` file.
 pub fn frequency_deck(mesh: &SectorMesh, opts: &FrequencyDeck) -> String {
     let mut out = String::new();
+    let omega = opts.omega_rad_s;
     let _ = writeln!(
         out,
-        "** rubscan {}: cyclic frequencies per nodal diameter at rest (Omega = 0)",
+        "** rubscan {}: cyclic frequencies per nodal diameter at Omega = {omega} rad/s",
         env!("CARGO_PKG_VERSION")
     );
     let _ = writeln!(out, "*INCLUDE, INPUT={}", opts.model_file);
-    let _ = writeln!(out, "*STEP\n*FREQUENCY\n{}", opts.modes_per_diameter);
+    if omega != 0.0 {
+        // Linear statics (no NLGEOM): the prestate rubscan's K(Ω) linearises about.
+        let _ = writeln!(
+            out,
+            "*STEP\n*STATIC\n*DLOAD\n{}, CENTRIF, {}, 0., 0., 0., 0., 0., 1.\n*END STEP",
+            sets::ALL_ELEMENTS,
+            real_field(omega * omega)
+        );
+        let _ = writeln!(out, "*STEP, PERTURBATION");
+    } else {
+        let _ = writeln!(out, "*STEP");
+    }
+    let _ = writeln!(out, "*FREQUENCY\n{}", opts.modes_per_diameter);
     let _ = writeln!(
         out,
         "*SELECT CYCLIC SYMMETRY MODES, NMIN=0, NMAX={}",
@@ -371,6 +391,7 @@ mod tests {
             &FrequencyDeck {
                 model_file: "casing_sector.inp".into(),
                 modes_per_diameter: 20,
+                omega_rad_s: 0.0,
             },
         );
         assert!(freq.contains("*INCLUDE, INPUT=casing_sector.inp\n*STEP\n*FREQUENCY\n20\n"));
@@ -394,6 +415,7 @@ mod tests {
         let opts = FrequencyDeck {
             model_file: "impeller_sector.inp".into(),
             modes_per_diameter: 4,
+            omega_rad_s: 0.0,
         };
         std::fs::write(
             dir.join(&opts.model_file),

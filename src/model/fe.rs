@@ -292,6 +292,79 @@ pub(crate) fn element_geometric_stiffness(
     k
 }
 
+/// Derivative of the Green–Lagrange strain's quadratic part at displacement gradient `h`
+/// (`h[k][j] = ∂u_k/∂x_j`) with respect to the displacement of a node with shape gradient `g`:
+/// the 6×3 block `B_H` (Voigt xx, yy, zz, xy, yz, zx, engineering shears) with
+/// `δE = (B_L + B_H) δu` to first order in `δu`.
+fn b_displacement_block(g: &[f64; 3], h: &[[f64; 3]; 3]) -> [[f64; 3]; 6] {
+    let mut b = [[0.0; 3]; 6];
+    for k in 0..3 {
+        b[0][k] = h[k][0] * g[0];
+        b[1][k] = h[k][1] * g[1];
+        b[2][k] = h[k][2] * g[2];
+        b[3][k] = h[k][0] * g[1] + h[k][1] * g[0];
+        b[4][k] = h[k][1] * g[2] + h[k][2] * g[1];
+        b[5][k] = h[k][2] * g[0] + h[k][0] * g[2];
+    }
+    b
+}
+
+/// Initial-displacement (large-displacement) stiffness of a prestressed element whose static
+/// displacement is `u` (60 entries, m): the tangent `∫ (B_L + B_H)ᵀ D (B_L + B_H) dV` less
+/// `K0`, split by order in `u`: `(∫ B_Lᵀ D B_H + B_Hᵀ D B_L dV, ∫ B_Hᵀ D B_H dV)` (60×60
+/// row-major each, N/m). With `u = Ω² u₁` they enter `K(Ω)` at Ω² and Ω⁴.
+pub(crate) fn element_displacement_stiffness(
+    gps: &[GaussPoint; 27],
+    mat: &Material,
+    u: &[f64; 60],
+) -> (Vec<f64>, Vec<f64>) {
+    let d = elasticity_matrix(mat);
+    let (mut k1, mut k2) = (vec![0.0; 3600], vec![0.0; 3600]);
+    for gp in gps {
+        let mut h = [[0.0; 3]; 3];
+        for a in 0..20 {
+            for k in 0..3 {
+                for j in 0..3 {
+                    h[k][j] += u[3 * a + k] * gp.grad[a][j];
+                }
+            }
+        }
+        let bl: Vec<[[f64; 3]; 6]> = gp.grad.iter().map(b_block).collect();
+        let bh: Vec<[[f64; 3]; 6]> = gp
+            .grad
+            .iter()
+            .map(|g| b_displacement_block(g, &h))
+            .collect();
+        let times_d = |b: &[[f64; 3]; 6]| {
+            let mut o = [[0.0; 3]; 6];
+            for r in 0..6 {
+                for c in 0..3 {
+                    o[r][c] = (0..6).map(|s| d[r][s] * b[s][c]).sum();
+                }
+            }
+            o
+        };
+        let dbl: Vec<[[f64; 3]; 6]> = bl.iter().map(times_d).collect();
+        let dbh: Vec<[[f64; 3]; 6]> = bh.iter().map(times_d).collect();
+        for a in 0..20 {
+            for b in 0..20 {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let (mut first, mut second) = (0.0, 0.0);
+                        for r in 0..6 {
+                            first += bl[a][r][i] * dbh[b][r][j] + bh[a][r][i] * dbl[b][r][j];
+                            second += bh[a][r][i] * dbh[b][r][j];
+                        }
+                        k1[(3 * a + i) * 60 + 3 * b + j] += first * gp.weight;
+                        k2[(3 * a + i) * 60 + 3 * b + j] += second * gp.weight;
+                    }
+                }
+            }
+        }
+    }
+    (k1, k2)
+}
+
 /// Sparse matrices of one sector (DOF `3*node + dir`, full storage of both triangles).
 #[derive(Clone, Debug)]
 pub(crate) struct SectorMatrices {
@@ -302,6 +375,9 @@ pub(crate) struct SectorMatrices {
     /// Centrifugal stiffness K1 per unit Ω² (kg): geometric stiffness of the linear
     /// centrifugal prestress minus spin softening, so that K(Ω) = K0 + Ω² K1.
     pub centrifugal: Option<SparseColMat<usize, f64>>,
+    /// The prestate u₁: the nodal-diameter-0 static displacement per unit Ω² (m·s², DOF
+    /// `3·node + dir`), with K1.
+    pub prestate: Option<Vec<f64>>,
 }
 
 fn element_coords(mesh: &SectorMesh, conn: &[usize; 20]) -> [[f64; 3]; 20] {
@@ -337,6 +413,9 @@ fn sparse(
 
 /// Assembles K0 and M of a sector and, if `with_centrifugal`, K1 = K_σ(σ₁) − M_s where σ₁ is the
 /// stress of the nodal-diameter-0 static solution per unit Ω² (see [`centrifugal_displacement`]).
+/// K1 leaves out the initial-displacement stiffness ([`initial_displacement_stiffness`]): a
+/// Craig–Bampton basis of modes at rest does not represent it (`docs/validation.md`,
+/// "Prestressed frequencies").
 ///
 /// Fails if the mesh is invalid, an element is inverted, or (with K1) the constrained static
 /// problem is singular (e.g. no clamped nodes).
@@ -367,7 +446,7 @@ pub(crate) fn assemble_sector(
     }
     let stiffness = sparse(n, &tk)?;
     let mass = sparse(n, &tm)?;
-    let centrifugal = if with_centrifugal {
+    let (centrifugal, prestate) = if with_centrifugal {
         let u = centrifugal_displacement(mesh, &stiffness, &f)?;
         let mut t1 = Vec::new();
         for (conn, gps) in mesh.elements.iter().zip(&gauss) {
@@ -385,15 +464,37 @@ pub(crate) fn assemble_sector(
             }
             scatter(&mut t1, conn, &ke);
         }
-        Some(sparse(n, &t1)?)
+        (Some(sparse(n, &t1)?), Some(u))
     } else {
-        None
+        (None, None)
     };
     Ok(SectorMatrices {
         stiffness,
         mass,
         centrifugal,
+        prestate,
     })
+}
+
+/// The initial-displacement stiffness of a sector about its centrifugal prestate `u₁` (per
+/// unit Ω², [`SectorMatrices::prestate`]): `[K_u1, K_u2]` with the tangent stiffness of the
+/// spinning sector `K0 + Ω² (K1 + K_u1) + Ω⁴ K_u2` ([`element_displacement_stiffness`]), the
+/// consistent linearisation that CalculiX's perturbation step forms after a linear `*STATIC`
+/// step under `CENTRIF`. rubscan's ROMs leave it out (see [`assemble_sector`]); the unreduced
+/// reference can include it to compare with CalculiX.
+pub(crate) fn initial_displacement_stiffness(
+    mesh: &SectorMesh,
+    u1: &[f64],
+) -> Result<[SparseColMat<usize, f64>; 2], FeError> {
+    let (mut t1, mut t2) = (Vec::new(), Vec::new());
+    for (e, conn) in mesh.elements.iter().enumerate() {
+        let gps = gauss_points(&element_coords(mesh, conn), e)?;
+        let ue: [f64; 60] = std::array::from_fn(|i| u1[3 * conn[i / 3] + i % 3]);
+        let (k1, k2) = element_displacement_stiffness(&gps, &mesh.material, &ue);
+        scatter(&mut t1, conn, &k1);
+        scatter(&mut t2, conn, &k2);
+    }
+    Ok([sparse(mesh.n_dofs(), &t1)?, sparse(mesh.n_dofs(), &t2)?])
 }
 
 /// Linear map from the full sector DOFs to the independent DOFs of the nodal-diameter-0 cyclic

@@ -1,5 +1,6 @@
 //! Natural frequencies of the *unreduced* cyclic sector finite-element model, per nodal
-//! diameter, at rest (Ω = 0): the reference the Craig–Bampton ROM approximates, and what an
+//! diameter, at rest or spinning (the impeller's linear prestress, [`Tangent`]): the
+//! reference the Craig–Bampton ROM approximates, and what an
 //! external FE solver's cyclic symmetry solve of the same mesh must reproduce (issue 40, the
 //! CalculiX check in `docs/validation.md`).
 //!
@@ -14,8 +15,9 @@ use faer::c64;
 use faer::sparse::SparseColMat;
 use rayon::prelude::*;
 
+use crate::model::component::scaled;
 use crate::model::cyclic::{CyclicDofMap, CyclicError, SectorTopology};
-use crate::model::fe::{FeError, assemble_sector};
+use crate::model::fe::{FeError, assemble_sector, initial_displacement_stiffness};
 use crate::model::mesh::SectorMesh;
 use crate::model::reduction::signed_hz;
 use crate::model::sparse_eigen::{
@@ -45,19 +47,40 @@ pub enum SectorModesError {
     },
 }
 
+/// Which tangent stiffness of the spinning sector [`unreduced_frequencies`] uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tangent {
+    /// rubscan's K(Ω) = K0 + Ω² K1: stress stiffening and spin softening (the ROMs' model).
+    StressStiffening,
+    /// K(Ω) plus the initial-displacement stiffness `Ω² K_u1 + Ω⁴ K_u2` of the linear
+    /// prestate: the consistent linearisation, as CalculiX's perturbation step forms it.
+    WithInitialDisplacement,
+}
+
 /// The lowest `n_modes` natural frequencies (Hz, ascending) of every nodal diameter
-/// `0..=N/2` (outer index) of the unreduced sector model of `mesh` at rest. Fewer when a
-/// harmonic problem has fewer DOFs.
+/// `0..=N/2` (outer index) of the unreduced sector model of `mesh` turning at `omega` rad/s
+/// (at rest for 0) with the `tangent` stiffness. Fewer when a harmonic problem has fewer DOFs.
 pub fn unreduced_frequencies(
     mesh: &SectorMesh,
     n_modes: usize,
+    omega: f64,
+    tangent: Tangent,
 ) -> Result<Vec<Vec<f64>>, SectorModesError> {
-    let mats = assemble_sector(mesh, false)?;
+    let mats = assemble_sector(mesh, omega != 0.0)?;
+    let w2 = omega * omega;
+    let mut stiffness = match &mats.centrifugal {
+        Some(k1) => &mats.stiffness + &scaled(k1, w2),
+        None => mats.stiffness.clone(),
+    };
+    if let (Tangent::WithInitialDisplacement, Some(u1)) = (tangent, &mats.prestate) {
+        let [ku1, ku2] = initial_displacement_stiffness(mesh, u1)?;
+        stiffness = &(&stiffness + &scaled(&ku1, w2)) + &scaled(&ku2, w2 * w2);
+    }
     let topo = SectorTopology::of(mesh);
     let map = CyclicDofMap::new(&topo, &[])?;
     (0..=mesh.n_sectors / 2)
         .into_par_iter()
-        .map(|k| harmonic_frequencies(&map, &mats.stiffness, &mats.mass, k, n_modes))
+        .map(|k| harmonic_frequencies(&map, &stiffness, &mats.mass, k, n_modes))
         .collect()
 }
 
@@ -108,7 +131,7 @@ mod tests {
     fn sixty_modes_per_diameter_on_the_default_casing_meet_the_tolerance() {
         let mesh = CasingGeometry::default().build().unwrap();
         let modes = 60;
-        let sparse = unreduced_frequencies(&mesh, modes).unwrap();
+        let sparse = unreduced_frequencies(&mesh, modes, 0.0, Tangent::StressStiffening).unwrap();
         assert!(sparse.iter().all(|f| f.len() == modes));
         let mats = assemble_sector(&mesh, false).unwrap();
         let map = CyclicDofMap::new(&SectorTopology::of(&mesh), &[]).unwrap();
@@ -145,7 +168,13 @@ mod tests {
             n_sectors: 8,
             ..CasingGeometry::default()
         };
-        let exact = unreduced_frequencies(&geometry.build().unwrap(), 5).unwrap();
+        let exact = unreduced_frequencies(
+            &geometry.build().unwrap(),
+            5,
+            0.0,
+            Tangent::StressStiffening,
+        )
+        .unwrap();
         assert_eq!(exact.len(), 5);
         let mut errors = Vec::new();
         for modes in [10, 40] {
