@@ -838,6 +838,23 @@ fn model_export_names_the_bad_field_and_writes_nothing() {
         assert!(err.contains("models.json") && err.contains(field), "{err}");
         assert!(!out.exists(), "a deck was written: {err}");
     }
+    for omega in ["0", "-100", "nan"] {
+        let st = rubscan()
+            .args([
+                "model",
+                "export",
+                "calculix",
+                &format!("--omega={omega}"),
+                "-o",
+            ])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = stderr(&st);
+        assert_eq!(st.status.code(), Some(1), "{err}");
+        assert!(err.contains("--omega") && err.contains("above 0"), "{err}");
+        assert!(!out.exists(), "a deck was written: {err}");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

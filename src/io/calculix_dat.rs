@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use crate::io::calculix::{ImportError, LineReader};
+use crate::io::text_lines::{ImportError, LineReader};
 
 /// The frequencies of one nodal diameter as CalculiX printed them.
 #[derive(Clone, Debug, PartialEq)]

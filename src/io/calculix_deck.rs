@@ -10,7 +10,7 @@
 //! their data are skipped. Keywords and set names are case-insensitive; `**` starts a comment
 //! line. Every error names the file and the 1-based line.
 
-use crate::io::calculix::{ImportError, Line, LineReader, parse_value};
+use crate::io::text_lines::{ImportError, Line, LineReader, parse_value};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 

@@ -396,6 +396,17 @@ mod tests {
         );
         assert!(freq.contains("*INCLUDE, INPUT=casing_sector.inp\n*STEP\n*FREQUENCY\n20\n"));
         assert!(freq.contains("NMIN=0, NMAX=4"));
+        let prestressed = frequency_deck(
+            &mesh,
+            &FrequencyDeck {
+                model_file: "casing_sector.inp".into(),
+                modes_per_diameter: 20,
+                omega_rad_s: 3000.0,
+            },
+        );
+        let steps = "*STEP\n*STATIC\n*DLOAD\nEALL, CENTRIF, 9e6, 0., 0., 0., 0., 0., 1.\n\
+                     *END STEP\n*STEP, PERTURBATION\n*FREQUENCY\n20\n";
+        assert!(prestressed.contains(steps), "{prestressed}");
     }
 
     /// The model deck read back by rubscan's own CalculiX reader (through the frequency

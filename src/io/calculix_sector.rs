@@ -33,8 +33,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::io::calculix::{ContactSelection, ImportError, Units};
+use crate::io::calculix::{ContactSelection, Units};
 use crate::io::calculix_deck::{CalculixMesh, read_calculix_mesh};
+use crate::io::text_lines::ImportError;
 use crate::model::build::{
     BuildError, DEFAULT_MODES_PER_DIAMETER, check_omega_grid, reduce_sector,
 };

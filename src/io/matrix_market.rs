@@ -14,9 +14,10 @@
 //!   table `id x y z` per line (whitespace or comma separated, `#`/`%` comments).
 
 use crate::io::calculix::{
-    CalculixMesh, ContactSelection, ImportError, LineReader, TriangleBuilder, Units, import_common,
-    parse_entry, parse_value, read_calculix_mesh, read_dof_lines, reduce_imported,
+    ContactSelection, TriangleBuilder, Units, import_common, read_dof_lines, reduce_imported,
 };
+use crate::io::calculix_deck::{CalculixMesh, read_calculix_mesh};
+use crate::io::text_lines::{ImportError, LineReader, parse_entry, parse_value};
 use crate::model::component::{NodeDof, sparse_from_entries};
 use crate::model::rom::{Component, CyclicRom, Damping};
 use faer::sparse::SparseColMat;

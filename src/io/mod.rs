@@ -13,4 +13,5 @@ pub mod content_hash;
 pub mod matrix_market;
 pub mod model_cache;
 pub mod rom_file;
+pub mod text_lines;
 pub mod timeseries;
