@@ -29,7 +29,7 @@
 mod common;
 use common::{Scratch, find_on_path, skip_or_fail};
 use rubscan::io::calculix_dat::{distinct_pairs, read_cyclic_frequencies};
-use rubscan::model::build::{ModelSpec, build_casing, build_impeller};
+use rubscan::model::build::{ImpellerSpec, ModelSpec, Prestress, build_casing, build_impeller};
 use rubscan::model::mesh::SectorMesh;
 use rubscan::model::rom::CyclicRom;
 use rubscan::model::sector_modes::{Tangent, unreduced_frequencies};
@@ -45,6 +45,9 @@ const TOLERANCE: f64 = 1e-3;
 /// reduction's basis holds fixed-interface modes at rest, so it is looser than at rest (the
 /// bound of `reduction::tests::built_in_models_match_their_unreduced_sectors`).
 const SPINNING_ROM_TOLERANCE: f64 = 1e-2;
+/// Fixed-interface modes per nodal diameter (at rest; as many again at the top speed) of the
+/// consistent-prestress impeller ROM compared with CalculiX's prestressed solve.
+const CONSISTENT_MODES: usize = 20;
 /// Speeds (rad/s) of the impeller's prestressed comparison.
 const PRESTRESS_RAD_S: [f64; 2] = [3500.0, 7000.0];
 /// Fixed-interface modes per nodal diameter of the ROMs under test (impeller, casing).
@@ -287,10 +290,17 @@ fn calculix_cyclic_solve_of_the_exported_decks_matches_rubscan() {
             found.rom_below_fe
         );
         if component == "impeller" {
+            let consistent = build_impeller(&ImpellerSpec {
+                modes_per_diameter: CONSISTENT_MODES,
+                prestress: Prestress::Consistent,
+                ..spec.impeller.clone()
+            })
+            .unwrap();
             for (i, omega) in PRESTRESS_RAD_S.into_iter().enumerate() {
                 let job = format!("impeller_prestressed_{omega}");
                 run_ccx(&ccx, &dir, &job);
-                prestressed(&mesh, &rom, i + 1, omega, &dir.join(format!("{job}.dat")));
+                let roms = [&rom, &consistent];
+                prestressed(&mesh, roms, i + 1, omega, &dir.join(format!("{job}.dat")));
             }
         }
     }
@@ -302,20 +312,26 @@ fn calculix_cyclic_solve_of_the_exported_decks_matches_rubscan() {
 /// K(Ω) (without the initial-displacement stiffness), unreduced and reduced, printed beside it;
 /// the ROM, whose basis holds modes at rest, must match its own unreduced model within
 /// [`SPINNING_ROM_TOLERANCE`] in its accuracy range.
-fn prestressed(mesh: &SectorMesh, rom: &CyclicRom, grid: usize, omega: f64, dat: &Path) {
+fn prestressed(mesh: &SectorMesh, roms: [&CyclicRom; 2], grid: usize, omega: f64, dat: &Path) {
+    let [rom, consistent_rom] = roms;
     let ccx = calculix_frequencies(dat, mesh.n_sectors);
     let consistent =
         unreduced_frequencies(mesh, MODES, omega, Tangent::WithInitialDisplacement).unwrap();
     let own = unreduced_frequencies(mesh, MODES, omega, Tangent::StressStiffening).unwrap();
     let (_, cutoff) = rom_frequencies(rom);
-    let red: Vec<Vec<f64>> = rom
-        .modal_data
-        .iter()
-        .map(|m| {
-            assert_eq!(m.omega[grid], omega);
-            m.frequencies[grid][..MODES].to_vec()
-        })
-        .collect();
+    let at_speed = |r: &CyclicRom| -> Vec<Vec<f64>> {
+        r.modal_data
+            .iter()
+            .map(|m| {
+                assert_eq!(m.omega[grid], omega);
+                m.frequencies[grid][..MODES].to_vec()
+            })
+            .collect()
+    };
+    let red = at_speed(rom);
+    let (_, consistent_cutoff) = rom_frequencies(consistent_rom);
+    let (consistent_rom_err, consistent_count) =
+        worst_per_nd(&at_speed(consistent_rom), &ccx, &consistent_cutoff);
     let all = vec![f64::INFINITY; ccx.len()];
     let (consistent_err, _) = worst_per_nd(&consistent, &ccx, &all);
     let (own_err, _) = worst_per_nd(&own, &ccx, &all);
@@ -342,9 +358,18 @@ fn prestressed(mesh: &SectorMesh, rom: &CyclicRom, grid: usize, omega: f64, dat:
         "  ROM vs its unreduced model over the {count} modes in its accuracy range: {:.2e}",
         max(&rom_own)
     );
+    println!(
+        "  consistent-prestress ROM ({CONSISTENT_MODES} modes) vs ccx over the {consistent_count} \
+         modes in its accuracy range: {:.2e}",
+        max(&consistent_rom_err)
+    );
     assert!(
         max(&consistent_err) < TOLERANCE,
         "consistent FE vs CalculiX at {omega}"
+    );
+    assert!(
+        max(&consistent_rom_err) < TOLERANCE,
+        "consistent-prestress ROM vs CalculiX at {omega}"
     );
     assert!(
         max(&rom_own) < SPINNING_ROM_TOLERANCE,

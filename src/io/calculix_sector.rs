@@ -37,7 +37,7 @@ use crate::io::calculix::{ContactSelection, Units};
 use crate::io::calculix_deck::{CalculixMesh, read_calculix_mesh};
 use crate::io::text_lines::ImportError;
 use crate::model::build::{
-    BuildError, DEFAULT_MODES_PER_DIAMETER, check_omega_grid, reduce_sector,
+    BuildError, DEFAULT_MODES_PER_DIAMETER, Prestress, check_omega_grid, reduce_sector,
 };
 use crate::model::mesh::{Material, NamedNode, SectorMesh};
 use crate::model::rom::{Component, CyclicRom, Damping};
@@ -71,6 +71,10 @@ pub struct CalculixSectorSpec {
     /// impeller's grid (0 to 7000 rad/s every 500).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub omega_grid_rad_s: Option<Vec<f64>>,
+    /// Impeller only: how K(Ω) follows the speed (default: stress stiffening and spin
+    /// softening; `"consistent"` adds the initial-displacement stiffness, as CalculiX).
+    #[serde(default, skip_serializing_if = "Prestress::is_default")]
+    pub prestress: Prestress,
     /// Unit system of the deck (`"si"` or `"mm-t-s"`).
     pub units: Units,
     /// Damping stored in the ROM.
@@ -105,6 +109,11 @@ pub fn import_calculix_sector(spec: &CalculixSectorSpec) -> Result<CyclicRom, Im
                 "omega_grid_rad_s: the casing does not rotate; give it for an impeller only".into(),
             ));
         }
+        (Component::Casing, None) if !spec.prestress.is_default() => {
+            return Err(ImportError::Spec(
+                "prestress: the casing does not rotate; give it for an impeller only".into(),
+            ));
+        }
         (Component::Casing, None) => vec![0.0],
         (Component::Impeller, Some(g)) => g.clone(),
         (Component::Impeller, None) => {
@@ -121,8 +130,8 @@ pub fn import_calculix_sector(spec: &CalculixSectorSpec) -> Result<CyclicRom, Im
     let mut rom = reduce_sector(
         spec.component,
         &sector.mesh,
-        spec.modes_per_diameter,
-        grid,
+        (spec.modes_per_diameter, grid),
+        spec.prestress,
         spec.damping,
         spec.name.clone(),
     )
@@ -521,6 +530,7 @@ mod tests {
             clamped_nodes: Some("CLAMPED".into()),
             modes_per_diameter: 4,
             omega_grid_rad_s: None,
+            prestress: Prestress::default(),
             units: Units::Si,
             damping: Damping::default(),
             named_nodes: BTreeMap::from([(

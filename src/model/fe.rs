@@ -375,6 +375,9 @@ pub(crate) struct SectorMatrices {
     /// Centrifugal stiffness K1 per unit Ω² (kg): geometric stiffness of the linear
     /// centrifugal prestress minus spin softening, so that K(Ω) = K0 + Ω² K1.
     pub centrifugal: Option<SparseColMat<usize, f64>>,
+    /// Quartic centrifugal stiffness K2 per unit Ω⁴ (kg·s²); `None` here, set by
+    /// [`crate::model::build::reduce_sector`] for the consistent prestress.
+    pub centrifugal_quartic: Option<SparseColMat<usize, f64>>,
     /// The prestate u₁: the nodal-diameter-0 static displacement per unit Ω² (m·s², DOF
     /// `3·node + dir`), with K1.
     pub prestate: Option<Vec<f64>>,
@@ -472,6 +475,7 @@ pub(crate) fn assemble_sector(
         stiffness,
         mass,
         centrifugal,
+        centrifugal_quartic: None,
         prestate,
     })
 }

@@ -63,6 +63,10 @@ pub(crate) struct ReductionOptions {
     pub damping: Damping,
     /// Sector nodes whose recovery rows the ROM keeps (the built-in models' named nodes).
     pub recovery_points: Vec<NamedNode>,
+    /// A speed (rad/s) at which the fixed-interface modes of K(Ω) are computed too and merged
+    /// into the basis ([`merge_speed_modes`]): a basis of modes at rest alone does not
+    /// represent the initial-displacement stiffness of the consistent prestress.
+    pub speed_basis: Option<f64>,
 }
 
 impl Default for ReductionOptions {
@@ -74,6 +78,7 @@ impl Default for ReductionOptions {
             name: "sector".into(),
             damping: Damping::default(),
             recovery_points: Vec::new(),
+            speed_basis: None,
         }
     }
 }
@@ -174,6 +179,8 @@ pub(crate) struct SectorModel<'a> {
     pub mass: &'a SparseColMat<usize, f64>,
     /// Centrifugal stiffness K1 (N/m per (rad/s)²), if the component rotates.
     pub centrifugal: Option<&'a SparseColMat<usize, f64>>,
+    /// Quartic centrifugal stiffness K2 (N/m per (rad/s)⁴): `K(Ω) = K0 + Ω² K1 + Ω⁴ K2`.
+    pub centrifugal_quartic: Option<&'a SparseColMat<usize, f64>>,
 }
 
 /// Result of the reduction of one nodal diameter.
@@ -203,6 +210,7 @@ pub(crate) fn reduce_cyclic(
         stiffness: &mats.stiffness,
         mass: &mats.mass,
         centrifugal: mats.centrifugal.as_ref(),
+        centrifugal_quartic: mats.centrifugal_quartic.as_ref(),
     };
     reduce_sector_model(&model, opts)
 }
@@ -297,6 +305,7 @@ fn check_model(
         ("stiffness", Some(model.stiffness)),
         ("mass", Some(model.mass)),
         ("centrifugal", model.centrifugal),
+        ("centrifugal quartic", model.centrifugal_quartic),
     ];
     for (what, m) in mats {
         if let Some(m) = m
@@ -349,28 +358,54 @@ pub(crate) fn reduce_harmonic(
     };
     let k_ii = interior(&k_trip)?;
     let m_ii = interior(&m_trip)?;
-    let mut k_ib = Mat::<c64>::zeros(ni, nb);
-    for e in k_trip.iter().filter(|e| e.row >= nb && e.col < nb) {
-        k_ib[(e.row - nb, e.col)] += e.val;
-    }
+
+    let coupling = |t: &[Triplet<usize, usize, c64>]| {
+        let mut k_ib = Mat::<c64>::zeros(ni, nb);
+        for e in t.iter().filter(|e| e.row >= nb && e.col < nb) {
+            k_ib[(e.row - nb, e.col)] += e.val;
+        }
+        k_ib
+    };
+    let k_ib = coupling(&k_trip);
+    // K(Ω)'s interior and interior–boundary blocks at the enrichment speed, if any.
+    let k_speed = match opts.speed_basis {
+        Some(w) if model.centrifugal.is_some() => {
+            let t = triplets_at_speed(model, map, k, &k_trip, w)?;
+            Some((interior(&t)?, coupling(&t)))
+        }
+        _ => None,
+    };
 
     // Constraint modes Ψ = −K_II⁻¹ K_IB and the lowest fixed-interface modes, M_II-normalized;
     // in real arithmetic for the real harmonics (real Ψ and Φ keep their reduced blocks real).
     let n_m = opts.modes_per_diameter.min(ni);
-    let (psi, lam, phi) = if real {
-        let (psi, pairs) = interior_modes(
+    let real_dense = |a: &Mat<c64>| Mat::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)].re);
+    let InteriorBasis {
+        psi,
+        ritz: lam,
+        modes: phi,
+    } = if real {
+        let k_speed = match &k_speed {
+            Some((kk, kb)) => Some((real_part(kk)?, real_dense(kb))),
+            None => None,
+        };
+        let b = fixed_interface_basis(
             &real_part(&k_ii)?,
             &real_part(&m_ii)?,
-            Mat::from_fn(ni, nb, |i, j| k_ib[(i, j)].re),
+            real_dense(&k_ib),
+            k_speed,
             n_m,
             k,
         )?;
-        let phi = to_complex(pairs.vectors.as_ref());
-        (to_complex(psi.as_ref()), pairs.values, phi)
+        InteriorBasis {
+            psi: to_complex(b.psi.as_ref()),
+            ritz: b.ritz,
+            modes: to_complex(b.modes.as_ref()),
+        }
     } else {
-        let (psi, pairs) = interior_modes(&k_ii, &m_ii, k_ib, n_m, k)?;
-        (psi, pairs.values, pairs.vectors)
+        fixed_interface_basis(&k_ii, &m_ii, k_ib, k_speed, n_m, k)?
     };
+    let n_m = phi.ncols();
 
     // Basis V = [[I, 0], [Ψ, Φ]] over (B, I) → (q_B, η).
     let nr = nb + n_m;
@@ -393,7 +428,10 @@ pub(crate) fn reduce_harmonic(
         Some(c) => project(&map.harmonic_triplets(c, k)?)?,
         None => HermitianMatrix::real(DMatrix::zeros(nr, nr)),
     };
-    let k2 = HermitianMatrix::real(DMatrix::zeros(nr, nr));
+    let k2 = match model.centrifugal_quartic {
+        Some(c) => project(&map.harmonic_triplets(c, k)?)?,
+        None => HermitianMatrix::real(DMatrix::zeros(nr, nr)),
+    };
     let block = HarmonicBlock {
         nodal_diameter: k,
         n_modes: n_m,
@@ -530,6 +568,138 @@ fn interior_modes<T: Scalar>(
     Ok((psi, pairs))
 }
 
+/// The triplets of nodal diameter `k`'s harmonic stiffness at speed `w` (rad/s):
+/// `K0 + w² K1 + w⁴ K2`, from those of K0 (`k_trip`).
+fn triplets_at_speed(
+    model: &SectorModel<'_>,
+    map: &CyclicDofMap,
+    k: usize,
+    k_trip: &[Triplet<usize, usize, c64>],
+    w: f64,
+) -> Result<Vec<Triplet<usize, usize, c64>>, ReductionError> {
+    let mut t = k_trip.to_vec();
+    for (a, factor) in [
+        (model.centrifugal, w * w),
+        (model.centrifugal_quartic, w.powi(4)),
+    ] {
+        if let Some(a) = a {
+            let scale = c64::new(factor, 0.0);
+            let extra = map.harmonic_triplets(a, k)?;
+            t.extend(
+                extra
+                    .into_iter()
+                    .map(|e| Triplet::new(e.row, e.col, e.val * scale)),
+            );
+        }
+    }
+    Ok(t)
+}
+
+/// Constraint modes and the interior part of a Craig–Bampton basis.
+struct InteriorBasis<T> {
+    /// Constraint modes `Ψ = −K_II⁻¹ K_IB` (interior × boundary).
+    psi: Mat<T>,
+    /// Ritz values of `(K_II, M_II)` on `modes`, ascending, (rad/s)².
+    ritz: Vec<f64>,
+    /// `M_II`-orthonormal, `K_II`-diagonal interior modes.
+    modes: Mat<T>,
+}
+
+/// Constraint modes `Ψ = −K_II⁻¹ K_IB`, and the interior basis with its Ritz values: the lowest
+/// `n_m` fixed-interface modes of `(K_II, M_II)`, merged, when `at_speed` gives `K_II(Ω)` and
+/// `K_IB(Ω)`, with those of `(K_II(Ω), M_II)` and with the change of the constraint modes
+/// `Ψ(Ω) − Ψ` ([`merge_speed_modes`]): the initial-displacement stiffness changes the static
+/// shapes near the boundary too, which no number of fixed-interface modes at rest represents.
+fn fixed_interface_basis<T: Scalar>(
+    k_ii: &SparseColMat<usize, T>,
+    m_ii: &SparseColMat<usize, T>,
+    k_ib: Mat<T>,
+    at_speed: Option<(SparseColMat<usize, T>, Mat<T>)>,
+    n_m: usize,
+    kd: usize,
+) -> Result<InteriorBasis<T>, ReductionError> {
+    let (psi, pairs) = interior_modes(k_ii, m_ii, k_ib, n_m, kd)?;
+    let Some((k_speed, k_ib_speed)) = at_speed.filter(|_| n_m > 0) else {
+        return Ok(InteriorBasis {
+            psi,
+            ritz: pairs.values,
+            modes: pairs.vectors,
+        });
+    };
+    let (psi_speed, modes) = interior_modes(&k_speed, m_ii, k_ib_speed, n_m, kd)?;
+    let shift = &psi_speed - &psi;
+    let (ni, nm, nb) = (psi.nrows(), modes.vectors.ncols(), psi.ncols());
+    let mut speed = Mat::<T>::zeros(ni, nm + nb);
+    speed
+        .as_mut()
+        .submatrix_mut(0, 0, ni, nm)
+        .copy_from(&modes.vectors);
+    speed
+        .as_mut()
+        .submatrix_mut(0, nm, ni, nb)
+        .copy_from(&shift);
+    let (ritz, modes) = merge_speed_modes(k_ii, m_ii, pairs.vectors, speed)
+        .map_err(|source| ReductionError::Eigen { k: kd, source })?;
+    Ok(InteriorBasis { psi, ritz, modes })
+}
+
+/// Relative `M`-norm² below which a mode at speed adds nothing to the modes at rest.
+const NEW_DIRECTION: f64 = 1e-8;
+
+/// The union of an `M`-orthonormal interior basis `rest` and vectors `speed` as one basis:
+/// the `speed` vectors are `M`-normalised and `M`-orthogonalised against `rest`, directions with less
+/// than [`NEW_DIRECTION`] of new content are dropped, and a Rayleigh–Ritz step on `(K_II,
+/// M_II)` makes the merged basis `M`-orthonormal and `K_II`-diagonal (its Ritz values
+/// returned, ascending) as the fixed-interface modes it replaces.
+fn merge_speed_modes<T: Scalar>(
+    k_ii: &SparseColMat<usize, T>,
+    m_ii: &SparseColMat<usize, T>,
+    rest: Mat<T>,
+    speed: Mat<T>,
+) -> Result<(Vec<f64>, Mat<T>), EigenError> {
+    let m_speed = m_ii * &speed;
+    let norms: Vec<f64> = (0..speed.ncols())
+        .map(|j| {
+            let v: T = (0..speed.nrows())
+                .map(|i| faer::traits::math_utils::conj(&speed[(i, j)]) * m_speed[(i, j)])
+                .fold(T::zero_impl(), |a, b| a + b);
+            faer::traits::math_utils::real(&v)
+                .max(f64::MIN_POSITIVE)
+                .sqrt()
+        })
+        .collect();
+    let speed = Mat::<T>::from_fn(speed.nrows(), speed.ncols(), |i, j| {
+        faer::traits::math_utils::mul_real(&speed[(i, j)], &(1.0 / norms[j]))
+    });
+    let coupling = rest.adjoint() * (m_ii * &speed);
+    let residual = &speed - &rest * &coupling;
+    let gram = residual.adjoint() * (m_ii * &residual);
+    let evd = gram
+        .self_adjoint_eigen(faer::Side::Lower)
+        .map_err(|_| EigenError::NoConvergence)?;
+    let s = evd.S().column_vector();
+    let keep: Vec<usize> = (0..s.nrows())
+        .filter(|&i| faer::traits::math_utils::real(&s[i]) > NEW_DIRECTION)
+        .collect();
+    let u = evd.U();
+    let scaled = Mat::<T>::from_fn(u.nrows(), keep.len(), |i, j| {
+        let sj = faer::traits::math_utils::real(&s[keep[j]]);
+        faer::traits::math_utils::mul_real(&u[(i, keep[j])], &(1.0 / sj.sqrt()))
+    });
+    let extra = &residual * &scaled;
+    let (ni, n0, n1) = (rest.nrows(), rest.ncols(), extra.ncols());
+    let mut basis = Mat::<T>::zeros(ni, n0 + n1);
+    basis.as_mut().submatrix_mut(0, 0, ni, n0).copy_from(&rest);
+    basis
+        .as_mut()
+        .submatrix_mut(0, n0, ni, n1)
+        .copy_from(&extra);
+    let kb = basis.adjoint() * (k_ii * &basis);
+    let mb = basis.adjoint() * (m_ii * &basis);
+    let (lam, y) = crate::model::eigen::cholesky_route(kb.as_ref(), mb.as_ref(), true)?;
+    Ok((lam, &basis * &y))
+}
+
 /// The real part of a sparse complex matrix (a real harmonic's matrices, whose imaginary
 /// parts are zero).
 fn real_part(a: &SparseColMat<usize, c64>) -> Result<SparseColMat<usize, f64>, ReductionError> {
@@ -562,6 +732,7 @@ mod tests {
             stiffness: &s.k,
             mass: &s.m,
             centrifugal: Some(&s.k1),
+            centrifugal_quartic: None,
         }
     }
 
@@ -1026,6 +1197,7 @@ mod exactness_tests {
             stiffness: &s.k,
             mass: &s.m,
             centrifugal: None,
+            centrifugal_quartic: None,
         };
         let o = ReductionOptions {
             modes_per_diameter: 10_000,
