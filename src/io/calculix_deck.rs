@@ -66,8 +66,8 @@ pub struct DeckBoundary {
     pub dofs: (usize, usize),
     /// Imposed value (0 when not given).
     pub value: f64,
-    /// Line of the data line in its file, for messages.
-    pub line: usize,
+    /// The file (the deck or one it includes) and the line of the data line, for messages.
+    pub at: (PathBuf, usize),
 }
 
 /// A `*CYCLIC SYMMETRY MODEL` card: the number of sectors, its tie and the axis a → b.
@@ -425,7 +425,7 @@ fn data_line(
                 target: target.to_uppercase(),
                 dofs: (first, last),
                 value,
-                line: l.no,
+                at: (l.path.to_path_buf(), l.no),
             });
         }
         _ => unreachable!("data_line is called for data blocks only"),

@@ -404,7 +404,7 @@ fn boundary_clamps(
 ) -> Result<Vec<usize>, ImportError> {
     let mut fixed: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
     for b in &deck.boundaries {
-        let at = |reason: String| ImportError::line(deck_path, b.line, reason);
+        let at = |reason: String| ImportError::line(&b.at.0, b.at.1, reason);
         if b.value != 0.0 {
             return Err(at(format!(
                 "*BOUNDARY imposes {} on {}: rubscan clamps nodes at zero only",
@@ -583,6 +583,22 @@ mod tests {
             back.mesh.clamped_nodes,
             crate::io::calculix_export::fixed_nodes(&mesh)
         );
+    }
+
+    /// A clamp of only some translations, or to a non-zero value, is refused by name.
+    #[test]
+    fn partial_or_moving_clamps_are_refused() {
+        for (card, why) in [
+            ("FIXED, 1, 2", "all three"),
+            ("FIXED, 1, 3, 1e-3", "at zero only"),
+        ] {
+            let mut spec = exported_impeller(&scratch("partial"), |d| {
+                d.replace("*BOUNDARY\nFIXED, 1, 3", &format!("*BOUNDARY\n{card}"))
+            });
+            spec.clamped_nodes = None;
+            let e = file_error(&spec);
+            assert!(e.contains(why), "{card}: {e}");
+        }
     }
 
     fn file_error(spec: &CalculixSectorSpec) -> String {

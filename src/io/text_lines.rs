@@ -138,7 +138,8 @@ pub(crate) struct Line<'a> {
     pub text: &'a str,
     /// 1-based line number.
     pub no: usize,
-    path: &'a Path,
+    /// The file the line is in.
+    pub path: &'a Path,
 }
 
 impl Line<'_> {
