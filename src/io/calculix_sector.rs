@@ -402,6 +402,7 @@ fn boundary_clamps(
     deck_path: &Path,
     index: &HashMap<usize, usize>,
 ) -> Result<Vec<usize>, ImportError> {
+    // Keyed by deck id: mesh indices follow increasing deck ids, so the order is the same.
     let mut fixed: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
     for b in &deck.boundaries {
         let at = |reason: String| ImportError::line(&b.at.0, b.at.1, reason);
@@ -420,38 +421,30 @@ fn boundary_clamps(
                 .ok_or_else(|| at(format!("*BOUNDARY: no node set '{}'", b.target)))?,
         };
         for id in ids {
-            let node = *index.get(&id).ok_or_else(|| {
-                at(format!(
+            if !index.contains_key(&id) {
+                return Err(at(format!(
                     "*BOUNDARY: node {id} is not a node of a C3D20 element"
-                ))
-            })?;
-            fixed.entry(node).or_default().extend(b.dofs.0..=b.dofs.1);
+                )));
+            }
+            fixed.entry(id).or_default().extend(b.dofs.0..=b.dofs.1);
         }
     }
     fixed
         .into_iter()
-        .map(|(node, dofs)| {
+        .map(|(id, dofs)| {
             if dofs == BTreeSet::from([1, 2, 3]) {
-                Ok(node)
+                Ok(index[&id])
             } else {
                 Err(ImportError::file(
                     deck_path,
                     format!(
-                        "*BOUNDARY fixes DOFs {dofs:?} of node {}: rubscan clamps all three \
-                         translations of a node or none",
-                        deck_node_id(index, node)
+                        "*BOUNDARY fixes DOFs {dofs:?} of node {id}: rubscan clamps all three \
+                         translations of a node or none"
                     ),
                 ))
             }
         })
         .collect()
-}
-
-fn deck_node_id(index: &HashMap<usize, usize>, node: usize) -> usize {
-    index
-        .iter()
-        .find_map(|(&id, &i)| (i == node).then_some(id))
-        .unwrap_or(node)
 }
 
 /// The contact nodes (mesh indices, in the selection's order), each on the free surface of
