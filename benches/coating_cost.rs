@@ -52,13 +52,16 @@ fn main() {
                         "round {round} η = {eta}: {us:.2} µs/step, contact steps {contact:.3}, \
                          coating steps {}, wear sum {sum:e} m, max wear {:e} m, peak force {:e} N, \
                          max blade radial {:e} m",
-                        co.coating_steps, co.max_wear_final, co.peak_force, s.max_blade_radial
+                        co.coating_steps,
+                        co.max_wear_final,
+                        co.peak_force,
+                        s.peaks.blade_radial()
                     );
                 }
                 None => println!(
                     "round {round} no coating: {us:.2} µs/step, contact steps {contact:.3}, \
                      max blade radial {:e} m",
-                    s.max_blade_radial
+                    s.peaks.blade_radial()
                 ),
             }
         }

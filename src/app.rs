@@ -398,7 +398,7 @@ pub fn simulate(
         "contact_steps": out.contact_steps,
         "closed_contact_steps": out.closed_contact_steps,
         "closed_contact_fraction": out.closed_contact_steps as f64 / out.n_steps.max(1) as f64,
-        "max_blade_radial_m": out.max_blade_radial,
+        "max_blade_radial_m": out.peaks.blade_radial(),
         "max_residual_penetration_m": out.max_residual_penetration,
         "steps_over_gap_tolerance": out.steps_over_gap_tolerance,
         "loop_seconds": out.loop_seconds,

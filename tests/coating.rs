@@ -183,10 +183,10 @@ fn localized_full_removal_hands_over_to_lagrange_contact() {
         out.summary.contact_steps
     );
     assert!(
-        out.summary.max_residual_penetration <= 1e-8 * out.summary.max_blade_radial,
+        out.summary.max_residual_penetration <= 1e-8 * out.summary.peaks.blade_radial(),
         "residual {:e} vs level {:e}",
         out.summary.max_residual_penetration,
-        out.summary.max_blade_radial
+        out.summary.peaks.blade_radial()
     );
 }
 

@@ -89,4 +89,21 @@ pub trait StructureKernel {
     fn node_displacements(&mut self, out: &mut [f64]) {
         out.copy_from_slice(self.boundary());
     }
+    /// The linear functional `wᵀ u` of the contact-node displacements `u` (sector-major, as
+    /// [`StructureKernel::node_displacements`]) with weights `w`, written on the kernel's own
+    /// state so that [`StructureKernel::functional_value`] evaluates it on every step without
+    /// forming `u`. By reciprocity the coefficients are the state's generalised force of the
+    /// load `w`.
+    fn boundary_functional(&mut self, weights: &[f64]) -> Vec<f64> {
+        weights.to_vec()
+    }
+    /// The value at `u_n` (after [`StructureKernel::advance`]) of a functional of
+    /// [`StructureKernel::boundary_functional`].
+    fn functional_value(&self, functional: &[f64]) -> f64 {
+        functional
+            .iter()
+            .zip(self.boundary())
+            .map(|(g, u)| g * u)
+            .sum()
+    }
 }

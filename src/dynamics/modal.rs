@@ -1053,6 +1053,21 @@ impl StructureKernel for ModalKernel {
     fn node_displacements(&mut self, out: &mut [f64]) {
         self.boundary_of(Which::Current, false, out);
     }
+    fn boundary_functional(&mut self, weights: &[f64]) -> Vec<f64> {
+        // u = S Φ_b η with S the inverse sector DFT, so wᵀ u = (Φ_bᵀ Sᵀ w)ᵀ η, and Sᵀ is the
+        // forward DFT of a load (`forces_to_rows`).
+        let stride = 2 * self.nbp;
+        self.forces_to_rows(weights);
+        let mut g = vec![0.0; self.eta.len()];
+        for (k, b) in self.blocks.iter().enumerate() {
+            let x = &self.fspec[k * stride..k * stride + b.rows];
+            project(self.isa, b, &b.phib, x, &mut g[b.offset..b.offset + b.dim]);
+        }
+        g
+    }
+    fn functional_value(&self, functional: &[f64]) -> f64 {
+        functional.iter().zip(&self.eta).map(|(g, e)| g * e).sum()
+    }
     fn harmonic_state(&self, out: &mut [f64]) {
         // x_k = Φ_k η_k: the basis is M-orthonormal (see `physical_to_modal`).
         for (b, modes) in self.blocks.iter().zip(&self.modes_full) {
@@ -1194,6 +1209,48 @@ mod tests {
             let mut reference = vec![0.0; 8 * nb];
             k[0].node_displacements(&mut reference);
             assert_eq!(corrected, reference);
+        }
+    }
+
+    /// A boundary functional on the modal state (`boundary_functional`, by reciprocity) gives
+    /// the value `wᵀ u` of the node displacements it weights, for a one-node probe and a
+    /// weight on every sector: the load's sector DFT summed directly (one sector, or 8) and by
+    /// FFTs (40 loaded sectors).
+    #[test]
+    fn boundary_functionals_equal_the_weighted_node_displacements() {
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let nb = 9;
+        for ns in [8, 40] {
+            let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, ns, 3, 2));
+            let st = Structure::new(&rom, 0.0).unwrap();
+            let mut k = ModalKernel::new(&st, 0.3 * st.stability_limit()).unwrap();
+            let mut probe = vec![0.0; ns * nb];
+            probe[(ns - 1) * nb + 3..(ns - 1) * nb + 6].copy_from_slice(&[0.6, -0.8, 0.0]);
+            let spread: Vec<f64> = (0..ns * nb)
+                .map(|i| ((i * 7 % 11) as f64 - 5.0) * 0.1)
+                .collect();
+            let g: Vec<Vec<f64>> = [&probe, &spread].map(|w| k.boundary_functional(w)).into();
+            let mut u = vec![0.0; ns * nb];
+            for step in 0..6 {
+                let f: Vec<f64> = (0..ns * nb)
+                    .map(|i| ((i + step) % 5) as f64 * 10.0 - 20.0)
+                    .collect();
+                k.predict(0.0);
+                k.correct(&f);
+                k.advance();
+                k.node_displacements(&mut u);
+                for (w, g) in [&probe, &spread].into_iter().zip(&g) {
+                    let direct: f64 = w.iter().zip(&u).map(|(a, b)| a * b).sum();
+                    let scale = u.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                    assert!(scale > 0.0);
+                    let value = k.functional_value(g);
+                    assert!(
+                        (value - direct).abs() <= 1e-12 * scale * ns as f64,
+                        "{ns} sectors, step {step}: {value} against {direct}"
+                    );
+                }
+            }
         }
     }
 

@@ -398,11 +398,16 @@ pub(super) fn check_job_identity(dir: &Path, m: &Manifest) -> Result<()> {
     if m.job_identity == JOB_IDENTITY {
         return Ok(());
     }
-    let why = if m.job_identity < JOB_IDENTITY {
-        "an older rubscan, when the paper's mass-carrying boundary was the default and the \
-         formulation was not part of a job's identity"
-    } else {
-        "a newer rubscan"
+    let why = match m.job_identity {
+        1 => {
+            "an older rubscan, when the paper's mass-carrying boundary was the default and the \
+             formulation was not part of a job's identity"
+        }
+        2 => {
+            "an older rubscan, whose maxima were taken on the sample steps only and so \
+             depended on numerics.decimation"
+        }
+        _ => "a newer rubscan",
     };
     bail!(
         "{} holds results of sweep \"{}\" written by rubscan {} under job identity {} (by {why}); \

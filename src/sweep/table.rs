@@ -146,27 +146,27 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
     (
         "max_blade_le_radial_m",
         "m",
-        "max |radial displacement| of blade leading edges",
+        "max |radial displacement| of blade leading edges, over every time step",
     ),
     (
         "max_blade_te_radial_m",
         "m",
-        "max |radial displacement| of blade trailing edges",
+        "max |radial displacement| of blade trailing edges, over every time step",
     ),
     (
         "max_casing_radial_m",
         "m",
-        "max |radial displacement| of casing probes",
+        "max |radial displacement| of casing probes, over every time step",
     ),
     (
         "max_contact_normal_force_n",
         "N",
-        "max normal contact force per blade",
+        "max normal contact force per blade, over every time step",
     ),
     (
         "max_coating_force_n",
         "N",
-        "max abradable coating force per blade",
+        "max abradable coating force per blade, over every time step",
     ),
     (
         "predicted_stable",

@@ -377,6 +377,9 @@ struct FlexibleCasing {
     radial: Vec<Vector3<f64>>,
     /// Contact-node displacements (m, sector-major) of the casing probes, scratch.
     nodes: Vec<f64>,
+    /// The radial displacement of each casing probe as a functional of the kernel's state
+    /// ([`StructureKernel::boundary_functional`]): read on every step for its peak.
+    probe_functionals: Vec<Vec<f64>>,
     /// The contact nodes' quasi-static displacements (m, sector-major) under the full
     /// external load (empty without one): what the runaway watch takes out of `nodes`.
     load_distortion: Vec<f64>,
@@ -453,7 +456,7 @@ impl CasingSide {
             .control_points(&rest_nodes, &mut q)
             .map_err(spline_err)?;
         let alpha = 2.0 * PI / n_sectors as f64;
-        let flexible = match (casing, st) {
+        let mut flexible = match (casing, st) {
             (CasingModel::Flexible(rom), Some(st)) => {
                 let kernel = Kernel::new(st, h, case.numerics.kernel, |k| {
                     ControlFlexTable::build(k, &spline)
@@ -472,6 +475,7 @@ impl CasingSide {
                         .map(|c| radial(&c.position))
                         .collect(),
                     nodes: vec![0.0; n_sectors * 3 * rows],
+                    probe_functionals: Vec::new(),
                     load_distortion: Vec::new(),
                 })
             }
@@ -482,6 +486,15 @@ impl CasingSide {
                 return Err(SimError::InvalidCase(format!(
                     "casing probe {p:?} is not a contact node of a flexible casing"
                 )));
+            }
+        }
+        if let Some(f) = flexible.as_mut() {
+            for &[sector, row] in &case.casing_probes {
+                let mut weights = vec![0.0; f.nodes.len()];
+                let at = sector * 3 * rows + 3 * row;
+                weights[at..at + 3].copy_from_slice(f.radial[row].as_slice());
+                let functional = f.kernel.get_mut().boundary_functional(&weights);
+                f.probe_functionals.push(functional);
             }
         }
         let radius_scale = rest_nodes.iter().map(|p| p.xy().norm()).fold(0.0, f64::max);
@@ -1948,16 +1961,36 @@ impl<'a> Simulation<'a> {
                 reason: "non-finite state".into(),
             });
         }
-        for s in 0..b.n_blades {
-            let (r_le, r_te) = (
-                b.radial_displacement(s, b.le),
-                b.radial_displacement(s, b.te),
-            );
-            let m = &mut self.summary.max_blade_radial;
-            *m = m.max(r_le.abs()).max(r_te.abs());
-        }
+        self.track_peaks();
         self.steps_done += 1;
         Ok(())
+    }
+
+    /// The run's maxima ([`Peaks`](crate::dynamics::probes::Peaks)) updated with the state
+    /// and forces of the step just taken: on every step, so that they do not depend on the
+    /// output decimation.
+    fn track_peaks(&mut self) {
+        let peaks = &mut self.summary.peaks;
+        let raise = |peak: &mut f64, x: f64| *peak = peak.max(x.abs());
+        let b = &self.blades;
+        for s in 0..b.n_blades {
+            raise(&mut peaks.blade_le_radial, b.radial_displacement(s, b.le));
+            raise(&mut peaks.blade_te_radial, b.radial_displacement(s, b.te));
+        }
+        if let Some(f) = self.casing.flexible() {
+            let k = f.kernel.get();
+            for g in &f.probe_functionals {
+                raise(&mut peaks.casing_radial, k.functional_value(g));
+            }
+        }
+        for &x in &self.contact.force_n {
+            raise(&mut peaks.contact_normal_force, x);
+        }
+        if let Some(c) = &self.coating {
+            for &x in &c.blade_force {
+                raise(&mut peaks.coating_force, x);
+            }
+        }
     }
 }
 
