@@ -9,13 +9,14 @@ the smallest count at which doubling it moves every column by less than 2 %).
 
     venv/bin/python python/benches/rom_convergence.py --modes 10 20 30 40 60 80
 
-Each run writes results/rom_convergence/<label>/ with `rubscan run` (release binary).
+Each run writes results/rom_convergence/<label>/ afresh with `rubscan run` (release binary).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import time
 from pathlib import Path
@@ -54,7 +55,8 @@ def spec(modes: int, formulation: str, duration_s: float) -> dict[str, Any]:
 
 def run(modes: int, formulation: str, duration_s: float, threads: int) -> dict[str, Any]:
     out = ROOT / "results" / "rom_convergence" / f"{formulation}_{modes}"
-    out.mkdir(parents=True, exist_ok=True)
+    shutil.rmtree(out, ignore_errors=True)  # a fresh run, never a resume of another revision
+    out.mkdir(parents=True)
     path = out / "spec.json"
     path.write_text(json.dumps(spec(modes, formulation, duration_s), indent=2))
     start = time.perf_counter()
