@@ -157,7 +157,11 @@ fn check_decimations(case: &Case, imp: &CyclicRom, casing: &CasingModel) -> Simu
         ("casing", m.casing_radial_m, &every.casing_radial, false),
     ] {
         let (every_step, sampled) = peak(series);
-        assert!(every_step > 0.0, "{name}: the case must move it");
+        let recorded = series.iter().any(|s| !s.is_empty());
+        assert!(
+            every_step > 0.0 || !recorded,
+            "{name}: the case must move it"
+        );
         if exact {
             assert_eq!(value.to_bits(), every_step.to_bits(), "{name}");
         } else {

@@ -1,15 +1,15 @@
 //! Import of a cyclic sector from a CalculiX input deck (issue 40): an impeller or casing
 //! sector meshed with C3D20 elements, its two cyclic faces, its clamps and its contact nodes,
 //! reduced exactly as the built-in models are (all nodal diameters, the impeller's
-//! K(Ω) = K0 + Ω² K1 from its centrifugal prestress).
+//! K(Ω) = K0 + Ω² K1 + Ω⁴ K2 from its centrifugal prestress).
 //!
 //! # Why the mesh, not `*MATRIXSTORAGE`
 //! rubscan assembles the sector's K, M and K1 itself from the deck's mesh and material with
 //! its own C3D20 element (full 3×3×3 integration, consistent mass, the element CalculiX uses;
 //! `tests/calculix_export.rs` checks it against `ccx`'s cyclic solve). That gives the
 //! centrifugal stiffening from the same linear prestress as the built-in impeller (stress
-//! stiffening from the nodal-diameter-0 static solution under `ρΩ²r`, spin softening from the
-//! mass matrix) at any speed, where CalculiX's matrix storage holds one speed's matrices per
+//! stiffening and initial-displacement stiffness from the nodal-diameter-0 static solution
+//! under `ρΩ²r`, spin softening from the mass matrix) at any speed, where CalculiX's matrix storage holds one speed's matrices per
 //! run and no record of which DOFs the cyclic tie made dependent. The price: C3D20 elements
 //! and one isotropic material only; other decks are refused with the element or material
 //! named.
@@ -71,8 +71,9 @@ pub struct CalculixSectorSpec {
     /// impeller's grid (0 to 7000 rad/s every 500).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub omega_grid_rad_s: Option<Vec<f64>>,
-    /// Impeller only: how K(Ω) follows the speed (default: stress stiffening and spin
-    /// softening; `"consistent"` adds the initial-displacement stiffness, as CalculiX).
+    /// Impeller only: how K(Ω) follows the speed (default `"consistent"`, as CalculiX's
+    /// prestressed perturbation step; `"stress_stiffening"` leaves out the
+    /// initial-displacement stiffness).
     #[serde(default, skip_serializing_if = "Prestress::is_default")]
     pub prestress: Prestress,
     /// Unit system of the deck (`"si"` or `"mm-t-s"`).

@@ -43,8 +43,9 @@ use thiserror::Error;
 /// Revision of the reduction's numerics, part of the key of the on-disk ROM cache
 /// ([`crate::io::model_cache`]): bump it with every change that alters the numbers of a built
 /// ROM, or a machine's cache keeps serving ROMs of the old code (the crate version does not
-/// change with such commits). 2: fixed-interface modes from [`crate::model::sparse_eigen`].
-pub const NUMERICS_REVISION: u32 = 2;
+/// change with such commits). 2: fixed-interface modes from [`crate::model::sparse_eigen`];
+/// 3: the consistent prestress became the impeller's default (an unchanged spec, new numbers).
+pub const NUMERICS_REVISION: u32 = 3;
 
 /// Options of the cyclic Craig–Bampton reduction.
 #[derive(Clone, Debug, PartialEq)]

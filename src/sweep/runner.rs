@@ -405,7 +405,8 @@ pub(super) fn check_job_identity(dir: &Path, m: &Manifest) -> Result<()> {
         }
         2 => {
             "an older rubscan, whose maxima were taken on the sample steps only and so \
-             depended on numerics.decimation"
+             depended on numerics.decimation, and whose impeller K(Ω) was the stress \
+             stiffening alone (\"prestress\": \"stress_stiffening\" in the model spec)"
         }
         _ => "a newer rubscan",
     };

@@ -1101,7 +1101,7 @@ mod tests {
         };
         casing.damping = impeller.damping;
         impeller.geometry.blade_lean_deg = -20.0;
-        impeller.prestress = crate::model::build::Prestress::Consistent;
+        impeller.prestress = crate::model::build::Prestress::StressStiffening;
         b.models.impeller = ModelSource::Builtin(Box::new(impeller));
         b.models.casing = CasingSource::Builtin(Box::new(casing));
         b.grid.speed = SpeedAxis {
