@@ -1,4 +1,5 @@
 //! Tests of the time loop: analytic solutions, energy, symmetry, convergence, kernels.
+use super::casing_side::{add_casing_force_global, rotate_to_sector_frames};
 use super::*;
 use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::numerics::Numerics;
