@@ -13,41 +13,20 @@ Each run writes results/cutoff_study/<label>/ afresh with `rubscan run` (release
 from __future__ import annotations
 
 import argparse
-import json
-import shutil
-import subprocess
-import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pyarrow.parquet as pq
 
-from rom_convergence import COLUMNS, ROOT, spec
+from rom_convergence import COLUMNS, ROOT, run_job, spec
 
 
 def run(cutoff_hz: float | None) -> dict[str, Any]:
     label = "none" if cutoff_hz is None else f"{cutoff_hz:g}"
-    out = ROOT / "results" / "cutoff_study" / label
-    shutil.rmtree(out, ignore_errors=True)
-    out.mkdir(parents=True)
     job = spec(20, "massless", 0.07)
     if cutoff_hz is not None:
         job["numerics"]["mode_cutoff_hz"] = cutoff_hz
-    (out / "spec.json").write_text(json.dumps(job, indent=2))
-    start = time.perf_counter()
-    subprocess.run(
-        [str(ROOT / "target/release/rubscan"), "run", str(out / "spec.json"), "-o", str(out),
-         "--threads", "1"],
-        check=True, capture_output=True,
-    )
-    wall = time.perf_counter() - start
-    row = pq.read_table(out / "results.parquet").to_pylist()[0]
-    assert row["status"] == "ok", row["reason"]
-    values = {name: row[col] for name, col in COLUMNS.items()}
-    values["wear"] = np.asarray(row["wear_profile_m"], dtype=float)
-    values["wall (s)"] = wall
-    return values
+    return run_job(job, ROOT / "results" / "cutoff_study" / label, threads=1)
 
 
 def relative(r: dict[str, Any], ref: dict[str, Any]) -> list[float]:

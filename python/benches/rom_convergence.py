@@ -55,10 +55,15 @@ def spec(modes: int, formulation: str, duration_s: float) -> dict[str, Any]:
 
 def run(modes: int, formulation: str, duration_s: float, threads: int) -> dict[str, Any]:
     out = ROOT / "results" / "rom_convergence" / f"{formulation}_{modes}"
+    return run_job(spec(modes, formulation, duration_s), out, threads)
+
+
+def run_job(job: dict[str, Any], out: Path, threads: int) -> dict[str, Any]:
+    """Runs the one-job sweep `job` into `out` afresh; its maxima, wear profile and wall (s)."""
     shutil.rmtree(out, ignore_errors=True)  # a fresh run, never a resume of another revision
     out.mkdir(parents=True)
     path = out / "spec.json"
-    path.write_text(json.dumps(spec(modes, formulation, duration_s), indent=2))
+    path.write_text(json.dumps(job, indent=2))
     start = time.perf_counter()
     subprocess.run(
         [str(ROOT / "target/release/rubscan"), "run", str(path), "-o", str(out),
