@@ -7,6 +7,11 @@
 //! structures; then `advance` and `record` a sample for the caller's [`Recorder`]. With a
 //! massless boundary the coating's forces are not applied in `coating` but solved with the
 //! contact (`contact_solve`, see `CoatingStage`).
+//!
+//! Beside the loop, one file per concept: `casing_side` (the spline surface, the flexible
+//! casing and its frames), `contact_problem` (box 4's candidates, Delassus operator and
+//! corrected gaps), `free_edge` (its rows where tips overhang the casing's edges),
+//! `coating_stage` (Fig. 11), `record` (box 6) and `runaway_watch`.
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
