@@ -221,7 +221,9 @@ pub struct Peaks {
     pub blade_le_radial: f64,
     /// Radial displacement (m) of any blade's trailing-edge tip node.
     pub blade_te_radial: f64,
-    /// Radial displacement (m) of the case's casing probe nodes.
+    /// Radial displacement (m) of the case's casing probe nodes, read every
+    /// [`CASING_PEAK_INTERVAL`](crate::dynamics::simulate::CASING_PEAK_INTERVAL) of simulated
+    /// time (every step when h is longer).
     pub casing_radial: f64,
     /// Normal contact force summed over a blade (N).
     pub contact_normal_force: f64,

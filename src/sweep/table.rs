@@ -156,7 +156,7 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
     (
         "max_casing_radial_m",
         "m",
-        "max |radial displacement| of casing probes, over every time step",
+        "max |radial displacement| of casing probes, read every 2 µs of simulated time (every step when longer)",
     ),
     (
         "max_contact_normal_force_n",

@@ -1338,7 +1338,9 @@ impl<'a> Simulation<'a> {
             raise(&mut peaks.blade_le_radial, b.radial_displacement(s, b.le));
             raise(&mut peaks.blade_te_radial, b.radial_displacement(s, b.te));
         }
-        if let Some(f) = self.casing.flexible() {
+        if let Some(f) = self.casing.flexible()
+            && self.steps_done.is_multiple_of(f.probe_stride)
+        {
             let k = f.kernel.get();
             for g in &f.probe_functionals {
                 raise(&mut peaks.casing_radial, k.functional_value(g));
@@ -1468,6 +1470,7 @@ mod runaway_watch;
 #[cfg(test)]
 mod tests;
 
+pub use casing_side::CASING_PEAK_INTERVAL;
 use casing_side::{
     Casing, CasingFrames, CasingSide, FlexibleCasing, PastSurface, set_casing_load, surface_point,
 };
