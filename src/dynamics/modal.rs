@@ -1067,21 +1067,18 @@ impl StructureKernel for ModalKernel {
     }
     fn functional_value(&self, functional: &[f64]) -> f64 {
         // Read on every step over the whole modal state: eight lanes of partial sums in a fixed
-        // order, then the tail, compiled for the kernel's path (vectorised; the same
-        // arithmetic on every path, so the same bits).
-        simd::compiled_for(self.isa, |_| {
-            let (g, g_tail) = functional.as_chunks::<8>();
-            let (eta, eta_tail) = self.eta[..functional.len()].as_chunks::<8>();
-            let mut lanes = [0.0f64; 8];
-            for (g, e) in g.iter().zip(eta) {
-                for l in 0..8 {
-                    lanes[l] += g[l] * e[l];
-                }
+        // order (deterministic, and the compiler vectorises them), then the tail.
+        let (g, g_tail) = functional.as_chunks::<8>();
+        let (eta, eta_tail) = self.eta[..functional.len()].as_chunks::<8>();
+        let mut lanes = [0.0f64; 8];
+        for (g, e) in g.iter().zip(eta) {
+            for l in 0..8 {
+                lanes[l] += g[l] * e[l];
             }
-            let tail: f64 = g_tail.iter().zip(eta_tail).map(|(g, e)| g * e).sum();
-            let quads = [0, 2, 4, 6].map(|l| lanes[l] + lanes[l + 1]);
-            (quads[0] + quads[1]) + (quads[2] + quads[3]) + tail
-        })
+        }
+        let tail: f64 = g_tail.iter().zip(eta_tail).map(|(g, e)| g * e).sum();
+        let quads = [0, 2, 4, 6].map(|l| lanes[l] + lanes[l + 1]);
+        (quads[0] + quads[1]) + (quads[2] + quads[3]) + tail
     }
     fn harmonic_state(&self, out: &mut [f64]) {
         // x_k = Φ_k η_k: the basis is M-orthonormal (see `physical_to_modal`).
