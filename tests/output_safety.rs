@@ -174,7 +174,17 @@ fn run_merge_and_status_refuse_a_directory_of_an_older_job_identity() {
     let path = old.join("manifest.json");
     let mut manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    assert_eq!(manifest["job_identity"], 3);
+    assert_eq!(manifest["job_identity"], 4);
+    manifest["job_identity"] = 3.into();
+    std::fs::write(&path, manifest.to_string()).unwrap();
+    let err = refused(&spec, &old, None);
+    assert_names(
+        &err,
+        &[
+            "job identity 3",
+            "coating force of the end of the step alone",
+        ],
+    );
     manifest["job_identity"] = 2.into();
     std::fs::write(&path, manifest.to_string()).unwrap();
     let err = refused(&spec, &old, None);

@@ -32,6 +32,9 @@ pub(crate) struct DenseKernel {
     u_next: Mat<f64>,
     rhs: Mat<f64>,
     fload: Mat<f64>,
+    /// The inertial modes' part of `A⁻¹ f` for the loads of
+    /// [`StructureKernel::add_inertial_load`], added to the next predictor.
+    inertial_du: Option<Mat<f64>>,
     ub: Vec<f64>,
 }
 
@@ -103,6 +106,7 @@ impl DenseKernel {
             u_next: Mat::zeros(n, 1),
             rhs: Mat::zeros(n, 1),
             fload: Mat::zeros(n, 1),
+            inertial_du: None,
             ub: vec![0.0; st.n_sectors * st.n_boundary],
         }
     }
@@ -181,10 +185,27 @@ impl StructureKernel for DenseKernel {
             1.0,
             Par::Seq,
         );
+        if let Some(du) = self.inertial_du.take() {
+            self.u_next += du;
+        }
         self.refresh();
     }
     fn boundary(&self) -> &[f64] {
         &self.ub
+    }
+    fn add_inertial_load(&mut self, forces: &[f64]) {
+        let nbt = forces.len();
+        let f = MatRef::from_column_major_slice(forces, nbt, 1);
+        let a = self.ainv.as_ref().submatrix(0, 0, self.ainv.nrows(), nbt);
+        let mut du = Mat::<f64>::zeros(self.ainv.nrows(), 1);
+        matmul(du.as_mut(), Accum::Replace, a, f, 1.0, Par::Seq);
+        if let Some(s) = &self.statics {
+            du -= s.project(&self.p, &du);
+        }
+        match &mut self.inertial_du {
+            Some(acc) => *acc += du,
+            None => self.inertial_du = Some(du),
+        }
     }
     fn correct(&mut self, forces: &[f64]) {
         let nbt = forces.len();

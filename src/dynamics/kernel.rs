@@ -45,6 +45,13 @@ pub trait StructureKernel {
     fn predict(&mut self, amplitude: f64);
     /// Boundary displacements (m) of the current `u_{n+1}` (predicted, or corrected).
     fn boundary(&self) -> &[f64];
+    /// Adds boundary forces `f` (N, sector-major) to the load of the next step's predictor,
+    /// on the inertial modes only: the quasi-static modes of a massless boundary (module doc
+    /// of [`crate::dynamics::structure`]) do not see it. Call it in step n, before the
+    /// correction that forms the predictor of step n + 1 (or before that predictor when no
+    /// correction follows); [`StructureKernel::predict`] of step n + 1 uses it up. It carries
+    /// the coating force's history (`CoatingStage` in `simulate`).
+    fn add_inertial_load(&mut self, forces: &[f64]);
     /// Correction `u_{n+1} += A⁻¹ f` for boundary forces `f` (N, sector-major); refreshes the boundary.
     fn correct(&mut self, forces: &[f64]);
     /// [`StructureKernel::correct`], after which [`StructureKernel::advance`] and then

@@ -1,7 +1,7 @@
 //! The two kernels checked against each other: the fast modal kernel and the dense reference
 //! advance the same structure through the same loads to the same states (free flight, loads,
-//! corrections, energies), in the paper's formulation and with a massless boundary. Beside
-//! both, since it needs both.
+//! corrections, inertial loads, energies), in the paper's formulation and with a massless
+//! boundary. Beside both, since it needs both.
 
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::kernel::StructureKernel;
@@ -39,11 +39,22 @@ fn check_structure(st: &Structure) {
         let amp = (step as f64 * 0.05).sin();
         fast.predict(amp);
         dense.predict(amp);
+        let force = |shift: usize| -> Vec<f64> {
+            (0..nb).map(|i| ((i + shift) % 3) as f64 - 1.0).collect()
+        };
         if step % 50 == 7 {
-            // Same correction force on both (exercises A⁻¹ f).
-            let f: Vec<f64> = (0..nb).map(|i| ((i + step) % 3) as f64 - 1.0).collect();
-            fast.correct(&f);
+            // Same correction force on both (exercises A⁻¹ f), and an inertial load that the
+            // fast kernel puts in the predictor it forms with the correction.
+            let (f, g) = (force(step), force(step + 1));
+            fast.add_inertial_load(&g);
+            dense.add_inertial_load(&g);
+            fast.correct_then_predict(&f, ((step + 1) as f64 * 0.05).sin());
             dense.correct(&f);
+        } else if step % 50 == 21 {
+            // An inertial load for the next predictor alone.
+            let g = force(step);
+            fast.add_inertial_load(&g);
+            dense.add_inertial_load(&g);
         }
         for (a, b) in fast.boundary().iter().zip(dense.boundary()) {
             scale = scale.max(b.abs());
@@ -84,6 +95,50 @@ fn check_structure(st: &Structure) {
     let s = rb.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     for (x, y) in ra.iter().zip(&rb) {
         assert!((x - y).abs() <= 1e-12 * s);
+    }
+}
+
+/// In the paper's formulation every mode is inertial: an inertial load `f` given before the
+/// predictor moves the predicted boundary as the correction `A⁻¹ f` of that predictor does,
+/// in both kernels.
+#[test]
+fn an_inertial_load_without_static_modes_is_a_correction_of_the_predictor() {
+    let rom = synthetic_rom(&SyntheticSpec::small(Component::Impeller, 5, 2, 3));
+    let st = Structure::new(&rom, 800.0).unwrap();
+    let h = 0.3 * st.stability_limit();
+    let nb = st.n_sectors * st.n_boundary;
+    let v0: Vec<f64> = (0..st.n_modal).map(|i| (i % 5) as f64 * 0.01).collect();
+    let f: Vec<f64> = (0..nb).map(|i| ((i * 7) % 5) as f64 - 2.0).collect();
+    let fast =
+        |st: &Structure| -> Box<dyn StructureKernel> { Box::new(ModalKernel::new(st, h).unwrap()) };
+    let dense = |st: &Structure| -> Box<dyn StructureKernel> { Box::new(DenseKernel::new(st, h)) };
+    let kernels: [&dyn Fn(&Structure) -> Box<dyn StructureKernel>; 2] = [&fast, &dense];
+    for make in kernels {
+        let (mut loaded, mut corrected) = (make(&st), make(&st));
+        for k in [&mut loaded, &mut corrected] {
+            k.set_initial_velocity(&v0);
+            k.predict(0.0);
+            k.advance();
+        }
+        loaded.add_inertial_load(&f);
+        loaded.predict(0.0);
+        corrected.predict(0.0);
+        corrected.correct(&f);
+        let scale = corrected
+            .boundary()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        for (a, b) in loaded.boundary().iter().zip(corrected.boundary()) {
+            assert!((a - b).abs() <= 1e-12 * scale, "{a:e} vs {b:e}");
+        }
+        // Used up by its predictor.
+        for k in [&mut loaded, &mut corrected] {
+            k.advance();
+            k.predict(0.0);
+        }
+        for (a, b) in loaded.boundary().iter().zip(corrected.boundary()) {
+            assert!((a - b).abs() <= 1e-12 * scale, "{a:e} vs {b:e}");
+        }
     }
 }
 

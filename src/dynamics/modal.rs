@@ -98,6 +98,12 @@ pub struct ModalKernel {
     eta: Vec<f64>,
     eta_next: Vec<f64>,
     gload: Vec<f64>,
+    /// Modal load `Φᵀ f` of [`StructureKernel::add_inertial_load`] on the inertial modes (0 on
+    /// the static ones), for the next predictor; `inertial_loaded` while it is not used up.
+    inertial_load: Vec<f64>,
+    inertial_loaded: bool,
+    /// `a g_load + inertial_load` of a predictor that carries an inertial load (work buffer).
+    load_sum: Vec<f64>,
     /// Per block: whether its part of `gload` is nonzero (the load term of an unloaded
     /// harmonic is not read).
     block_loaded: Vec<bool>,
@@ -244,6 +250,9 @@ impl ModalKernel {
             eta: vec![0.0; n],
             eta_next: vec![0.0; n],
             gload: vec![0.0; n],
+            inertial_load: vec![0.0; n],
+            inertial_loaded: false,
+            load_sum: vec![0.0; n],
             block_loaded: vec![false; n_blocks],
             ub: vec![0.0; ns * nb],
             r2c,
@@ -507,6 +516,13 @@ impl ModalKernel {
         let stride = 2 * self.nbp;
         let nh = self.blocks.len();
         self.descending = !self.descending;
+        let inertial = match next {
+            Some(a) if self.inertial_loaded => {
+                self.sum_loads(a);
+                true
+            }
+            _ => false,
+        };
         for i in 0..nh {
             let k = if self.descending { nh - 1 - i } else { i };
             let b = &self.blocks[k];
@@ -524,9 +540,12 @@ impl ModalKernel {
                 }
                 ForceTarget::State { channels } => {
                     let coefs = [&self.c1[r.clone()], &self.c2[r.clone()]];
-                    let load = next
-                        .filter(|&a| a != 0.0 && self.block_loaded[k])
-                        .map(|a| (&self.gload[r.clone()], a));
+                    let load = if inertial {
+                        Some((&self.load_sum[r.clone()], 1.0))
+                    } else {
+                        next.filter(|&a| a != 0.0 && self.block_loaded[k])
+                            .map(|a| (&self.gload[r.clone()], a))
+                    };
                     let pred = next.map(|_| &mut self.eta_prev[r.clone()]);
                     let past = (&self.eta[r.clone()], load);
                     correct_modes(deta, &mut self.eta_next[r], coefs, self.half_h2, past, pred);
@@ -542,6 +561,23 @@ impl ModalKernel {
             }
         }
         self.pred_amplitude = next;
+    }
+
+    /// The load of a predictor with pattern amplitude `a` and the inertial load, into
+    /// `load_sum` (read with amplitude 1).
+    fn sum_loads(&mut self, a: f64) {
+        let loads = self.gload.iter().zip(&self.inertial_load);
+        for (s, (g, h)) in self.load_sum.iter_mut().zip(loads) {
+            *s = a * g + h;
+        }
+    }
+
+    /// The inertial load has been read by the predictor of its step.
+    fn use_up_inertial_load(&mut self) {
+        if self.inertial_loaded {
+            self.inertial_load.fill(0.0);
+            self.inertial_loaded = false;
+        }
     }
 
     /// Modal forces `Φᵀ P f` of boundary forces `f` (sector-major), scaled by `1/a_p`, added to `dst`.
@@ -969,9 +1005,15 @@ impl StructureKernel for ModalKernel {
             // has rotated its modal coordinates into `eta_next`.
             std::mem::swap(&mut self.spec_state, &mut self.spec_pred);
             self.rows_to_boundary(true, &mut []);
+            self.use_up_inertial_load();
             return;
         }
-        let load = (amplitude != 0.0).then_some((&self.gload[..], amplitude));
+        let load = if self.inertial_loaded {
+            self.sum_loads(amplitude);
+            Some((&self.load_sum[..], 1.0))
+        } else {
+            (amplitude != 0.0).then_some((&self.gload[..], amplitude))
+        };
         predictor(
             &mut self.eta_next,
             [&self.c1, &self.c2],
@@ -979,10 +1021,27 @@ impl StructureKernel for ModalKernel {
             [&self.eta, &self.eta_prev],
             load,
         );
+        self.use_up_inertial_load();
         self.boundary_of(Which::Next, true, &mut []);
     }
     fn boundary(&self) -> &[f64] {
         &self.ub
+    }
+    fn add_inertial_load(&mut self, forces: &[f64]) {
+        // A predictor formed before this load would miss it: `predict` forms it again.
+        self.pred_amplitude = None;
+        self.forces_to_rows(forces);
+        let stride = 2 * self.nbp;
+        for (k, b) in self.blocks.iter().enumerate() {
+            let g = &mut self.deta[..b.dim];
+            project(self.isa, b, b.step_basis(), &self.fspec[k * stride..], g);
+            let r = b.offset..b.offset + b.dim;
+            let (dst, w) = (&mut self.inertial_load[r.clone()], &self.inertial[r]);
+            for ((x, g), w) in dst.iter_mut().zip(g.iter()).zip(w) {
+                *x += w * g;
+            }
+        }
+        self.inertial_loaded = true;
     }
     fn correct(&mut self, forces: &[f64]) {
         self.forces_to_rows(forces);

@@ -408,6 +408,10 @@ pub(super) fn check_job_identity(dir: &Path, m: &Manifest) -> Result<()> {
              depended on numerics.decimation, and whose impeller K(Ω) was the stress \
              stiffening alone (\"prestress\": \"stress_stiffening\" in the model spec)"
         }
+        3 => {
+            "an older rubscan, whose massless boundary gave the inertial modes the coating \
+             force of the end of the step alone (an error of first order in the time step)"
+        }
         _ => "a newer rubscan",
     };
     bail!(

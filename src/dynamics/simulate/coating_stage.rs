@@ -29,6 +29,21 @@ use super::*;
 /// to the casing is removed and solved again as a Lagrange contact
 /// ([`CoatingStage::wear_through`]). [`CoatingStage::implicit_force`] then keeps the solved
 /// states, and step 3 commits them.
+///
+/// Solved with the displacement, the force `F_{n+1}` at the end of the step is the
+/// quasi-static modes' equilibrium, as it must be; but applied through `A⁻¹` to the inertial
+/// modes too, it is a spring taken at the end of the step inside central differences: an
+/// implicit-Euler term, which damps at the rate `h k / 2m` (first order in h;
+/// docs/validation.md, "The mode cutoff on a coating"). So the inertial modes receive the
+/// force's history as well: `F_n` and `F_{n−1}` of both boundaries are kept
+/// ([`ForceHistory`]) and `F_{n−1} − F_n` goes to the next predictor of the inertial modes
+/// ([`StructureKernel::add_inertial_load`]). Those modes are then loaded by
+/// `F_{n+1} − F_n + F_{n−1} = F_n + O(h²)`, a symmetric three-point weighting: second order,
+/// and for a linear spring its characteristic polynomial is palindromic (roots on the unit
+/// circle: no numerical damping), stable whatever the stiffness
+/// (`python/benches/implicit_spring.py`). The implicit solve and its `W` are unchanged. The
+/// Lagrange multipliers keep the end of the step alone: a constraint's multiplier would
+/// otherwise follow `λ_{n+1} − λ_n + λ_{n−1} = Λ`, whose roots `e^{±iπ/3}` ring undamped.
 pub(super) struct CoatingStage {
     pub(super) layer: CoatingLayer,
     /// Impeller contact node index j → coating row.
@@ -57,6 +72,52 @@ pub(super) struct CoatingStage {
     /// casing: a step may move a tip over more than an element (`CoatingStage::cut_swept`).
     pub(super) theta_now: Vec<f64>,
     pub(super) theta_prev: Vec<f64>,
+    /// With a massless boundary, the coating forces of this step and the previous one on the
+    /// impeller's boundary (local frames) and on the casing's channels (see the type doc).
+    pub(super) history_i: ForceHistory,
+    pub(super) history_c: ForceHistory,
+}
+
+/// One structure's coating force on its boundary (N, sector-major) in this step, `F_n`, and
+/// in the previous one, and the load `F_{n−1} − F_n` that the next predictor gives its
+/// inertial modes ([`CoatingStage`]).
+pub(super) struct ForceHistory {
+    now: Vec<f64>,
+    prev: Vec<f64>,
+    load: Vec<f64>,
+}
+
+impl ForceHistory {
+    fn new(n: usize) -> Self {
+        Self {
+            now: vec![0.0; n],
+            prev: vec![0.0; n],
+            load: vec![0.0; n],
+        }
+    }
+
+    /// Starts a step: the last step's forces become the previous ones; returns this step's,
+    /// zeroed, to be filled.
+    pub(super) fn start(&mut self) -> &mut [f64] {
+        std::mem::swap(&mut self.now, &mut self.prev);
+        self.now.fill(0.0);
+        &mut self.now
+    }
+
+    /// This step's forces (N), being filled.
+    pub(super) fn now_mut(&mut self) -> &mut [f64] {
+        &mut self.now
+    }
+
+    /// `F_{n−1} − F_n` (N), or `None` when both steps' forces are zero.
+    pub(super) fn load(&mut self) -> Option<&[f64]> {
+        let mut any = false;
+        for (l, (p, n)) in self.load.iter_mut().zip(self.prev.iter().zip(&self.now)) {
+            *l = p - n;
+            any |= *p != 0.0 || *n != 0.0;
+        }
+        any.then_some(&self.load[..])
+    }
 }
 
 impl CoatingStage {
@@ -107,6 +168,8 @@ impl CoatingStage {
             node_law: Vec::new(),
             theta_now: Vec::new(),
             theta_prev: Vec::new(),
+            history_i: ForceHistory::new(nbl * nbi),
+            history_c: ForceHistory::new(ncs * 3 * mc),
         })
     }
 

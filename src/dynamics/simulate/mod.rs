@@ -565,8 +565,11 @@ impl<'a> Simulation<'a> {
                 }
             }
             self.refine_contact()?;
+            self.coating_history()?;
             self.correct()?;
             self.coating_forces()?;
+        } else {
+            self.coating_history()?;
         }
         self.advance()?;
         self.record(recorder)?;
@@ -908,6 +911,51 @@ impl<'a> Simulation<'a> {
             c.solve_multipliers(tol, self.t1)?;
         }
         self.clock.lap(Stage::ContactSolve);
+        Ok(())
+    }
+
+    /// With a coating on a massless boundary: this step's coating forces on both boundaries,
+    /// and their history `F_{n−1} − F_n` to the next predictors' inertial modes (see
+    /// [`CoatingStage`]), before the corrections that form those predictors.
+    fn coating_history(&mut self) -> Result<(), SimError> {
+        let (Some(cs), Casing::Surface(side)) = (
+            self.coating.as_mut().filter(|cs| cs.implicit()),
+            &mut self.casing,
+        ) else {
+            return Ok(());
+        };
+        let c = &self.contact;
+        let nbi = self.blades.nb;
+        let fi = cs.history_i.start();
+        let fc = cs.history_c.start();
+        for (k, (cd, &l)) in c.cands.iter().zip(&c.lambda).enumerate() {
+            if l == 0.0 || !c.on_coating(k) {
+                continue;
+            }
+            fi[cd.blade * nbi + 3 * cd.row..][..3]
+                .iter_mut()
+                .zip(cd.f_loc.iter())
+                .for_each(|(x, f)| *x += l * f);
+            if let Some(f) = &side.flexible {
+                let force = cd.fdir * (-l);
+                f.frames.add_force(
+                    &side.spline,
+                    &cd.param,
+                    &force,
+                    (&mut cs.wu, &mut cs.wv),
+                    fc,
+                )?;
+            }
+        }
+        if let Some(load) = cs.history_i.load() {
+            self.blades.kernel.get_mut().add_inertial_load(load);
+        }
+        if let Some(f) = side.flexible.as_mut() {
+            f.frames.finish_forces(cs.history_c.now_mut());
+            if let Some(load) = cs.history_c.load() {
+                f.kernel.get_mut().add_inertial_load(load);
+            }
+        }
         Ok(())
     }
 
