@@ -2,6 +2,7 @@
 //! blade tips, their law, the forces on both structures and the wear they leave.
 
 use super::*;
+use std::f64::consts::{PI, TAU};
 
 /// The abradable coating in the time loop (paper §4.1, Fig. 11).
 ///
@@ -68,10 +69,11 @@ pub(super) struct CoatingStage {
     /// it presses this step ([`CoatingStage::laws_of`]); empty with the paper's formulation.
     pub(super) node_law: Vec<Option<(usize, usize, CoatingLaw)>>,
     /// With a massless boundary, per blade-tip node the fixed-frame angle (rad) of its closest
-    /// point in this step and in the previous one, NaN when it was not within `e_abr` of the
-    /// casing: a step may move a tip over more than an element (`CoatingStage::cut_swept`).
-    pub(super) theta_now: Vec<f64>,
-    pub(super) theta_prev: Vec<f64>,
+    /// point and its gap to the casing (m, at the end of the step once solved) in this step
+    /// and in the previous one, the angle NaN when it was not within `e_abr` of the casing: a
+    /// step may move a tip over more than an element (`CoatingStage::cut_swept`).
+    pub(super) path_now: Vec<[f64; 2]>,
+    pub(super) path_prev: Vec<[f64; 2]>,
     /// With a massless boundary, the coating forces of this step and the previous one on the
     /// impeller's boundary (local frames) and on the casing's channels (see the type doc).
     pub(super) history_i: ForceHistory,
@@ -166,8 +168,8 @@ impl CoatingStage {
                 ..Default::default()
             },
             node_law: Vec::new(),
-            theta_now: Vec::new(),
-            theta_prev: Vec::new(),
+            path_now: Vec::new(),
+            path_prev: Vec::new(),
             history_i: ForceHistory::new(nbl * nbi),
             history_c: ForceHistory::new(ncs * 3 * mc),
         })
@@ -187,16 +189,16 @@ impl CoatingStage {
         self.removals.clear();
         self.blade_force.iter_mut().for_each(|x| *x = 0.0);
         let e_abr = self.layer.material().thickness;
-        std::mem::swap(&mut self.theta_prev, &mut self.theta_now);
+        std::mem::swap(&mut self.path_prev, &mut self.path_now);
         for (node, p) in proj.iter().enumerate() {
             self.node_law[node] = None;
-            self.theta_now[node] = f64::NAN;
+            self.path_now[node] = [f64::NAN; 2];
             if p.gap >= e_abr {
                 continue;
             }
             let row = self.row_of[node % nci];
             let theta = p.point.y.atan2(p.point.x);
-            self.theta_now[node] = theta;
+            self.path_now[node] = [theta, p.gap];
             let (element, law) = self.layer.law(row, theta)?;
             if p.gap <= 0.0 {
                 self.removals.push((row, element));
@@ -213,15 +215,19 @@ impl CoatingStage {
 
     /// The elements that tip `node` (row `row`) jumped over in the step, between its element
     /// of the previous step and this one, are cut as the tip's own element is, at the tip's
-    /// gap to the casing at the end of the step `gap` (m): removed when it is ≤ 0. (The paper's
-    /// steps move a tip by less than an element; a massless boundary's may not.)
+    /// gap to the casing where it passed over their centres: the gap along the straight path
+    /// from the previous step's end gap to this one's, `gap` (m), by angle. An element is
+    /// removed where that gap is ≤ 0. (The paper's steps move a tip by less than an element;
+    /// a massless boundary's may not.)
     pub(super) fn cut_swept(&mut self, node: usize, row: usize, gap: f64) -> Result<(), SimError> {
-        let (from, to) = (self.theta_prev[node], self.theta_now[node]);
-        if from.is_nan() || to.is_nan() {
+        self.path_now[node][1] = gap;
+        let (from, to) = (self.path_prev[node], self.path_now[node]);
+        if from[0].is_nan() || to[0].is_nan() {
             return Ok(());
         }
         let e_abr = self.layer.material().thickness;
-        for theta in self.layer.centres_between(from, to)? {
+        for theta in self.layer.centres_between(from[0], to[0])? {
+            let gap = gap_along_path(from, to, theta);
             if gap <= 0.0 {
                 let element = self.layer.element_index(theta)?;
                 self.removals.push((row, element));
@@ -461,5 +467,36 @@ impl CoatingStage {
             }
         }
         Ok(())
+    }
+}
+
+/// The gap (m) at angle `theta` (rad) of a tip going the shorter way round from `[θ₀, d₀]`
+/// to `[θ₁, d₁]` (angle in rad, gap in m) with its gap linear in the angle.
+fn gap_along_path([t0, d0]: [f64; 2], [t1, d1]: [f64; 2], theta: f64) -> f64 {
+    let turn = |a: f64| (a + PI).rem_euclid(TAU) - PI;
+    d0 + (d1 - d0) * turn(theta - t0) / turn(t1 - t0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gap_along_a_path_is_linear_in_the_angle_across_the_closing_line() {
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-15;
+        assert!(close(
+            gap_along_path([0.1, 2e-4], [0.3, 1e-4], 0.15),
+            1.75e-4
+        ));
+        // Backwards, and across θ = ±π: from 3.1 rad to −3.1 rad is 0.0832 rad forward.
+        assert!(close(
+            gap_along_path([0.3, 1e-4], [0.1, 2e-4], 0.25),
+            1.25e-4
+        ));
+        let span = TAU - 6.2;
+        let at = gap_along_path([3.1, 0.0], [-3.1, 1e-4], PI);
+        assert!(close(at, 1e-4 * (PI - 3.1) / span), "{at}");
+        let at = gap_along_path([3.1, 0.0], [-3.1, 1e-4], -3.12);
+        assert!(close(at, 1e-4 * (TAU - 3.12 - 3.1) / span), "{at}");
     }
 }

@@ -195,8 +195,8 @@ fn coating_stage(
                 Boundary::Massless => {
                     let nn = blades.n_blades * blades.n_contact;
                     cs.node_law = vec![None; nn];
-                    cs.theta_now = vec![f64::NAN; nn];
-                    cs.theta_prev = vec![f64::NAN; nn];
+                    cs.path_now = vec![[f64::NAN; 2]; nn];
+                    cs.path_prev = vec![[f64::NAN; 2]; nn];
                 }
             }
             Some(cs)
