@@ -887,6 +887,10 @@ fn paired_modes(b: &NdBlock) -> Result<PairedBasis, EigenError> {
         .max(1.0);
     let tol = 1e-9 * lmax;
     let mut chosen: Vec<DVector<f64>> = Vec::with_capacity(n);
+    // `M v` and `M J v` of each chosen vector: the projections read them instead of `M x`
+    // of each candidate after each subtraction (the static modes of a massless boundary are
+    // one cluster of `2 · 3n_c` equal eigenvalues, where that was most of a kernel's build).
+    let mut mass_chosen: Vec<(DVector<f64>, DVector<f64>)> = Vec::with_capacity(n);
     let mut start = 0;
     while start < dim {
         // A cluster of (numerically) equal eigenvalues, of even size.
@@ -904,15 +908,18 @@ fn paired_modes(b: &NdBlock) -> Result<PairedBasis, EigenError> {
             }
             let mut x = b.modes.column(c).into_owned();
             for _ in 0..2 {
-                for v in &chosen[first..] {
-                    let jv = j_of(v);
-                    x -= v * (v.dot(&(&b.mass * &x)));
-                    x -= &jv * (jv.dot(&(&b.mass * &x)));
+                for (v, (mv, mjv)) in chosen[first..].iter().zip(&mass_chosen[first..]) {
+                    x -= v * mv.dot(&x);
+                    x -= j_of(v) * mjv.dot(&x);
                 }
             }
-            let norm = x.dot(&(&b.mass * &x)).max(0.0).sqrt();
+            let mx = &b.mass * &x;
+            let norm = x.dot(&mx).max(0.0).sqrt();
             if norm > 0.5 {
-                chosen.push(x / norm);
+                let v = x / norm;
+                let mjv = &b.mass * j_of(&v);
+                mass_chosen.push((mx / norm, mjv));
+                chosen.push(v);
             }
         }
         if 2 * (chosen.len() - first) != end - start {

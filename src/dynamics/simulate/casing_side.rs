@@ -284,7 +284,16 @@ pub(super) fn set_casing_load(
         pat[i * nbc + 3 * te_c..i * nbc + 3 * te_c + 3].copy_from_slice(f.as_slice());
     }
     let mut stat = vec![0.0; ncs * nbc];
-    let mut mk = ModalKernel::new(stc, h)?;
+    // The fast casing kernel has the modes (its static response reads no state); the dense
+    // reference has not.
+    let mut own;
+    let mk = match &mut fc.kernel {
+        Kernel::Modal { kernel, .. } => kernel,
+        Kernel::Dense { .. } => {
+            own = ModalKernel::new(stc, h)?;
+            &mut own
+        }
+    };
     mk.static_boundary(&pat, &mut stat)
         .map_err(SimError::InvalidCase)?;
     let peak = (0..ncs)
