@@ -9,10 +9,12 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
+use rayon::prelude::*;
 
 use crate::analysis::interaction::{self, CriterionOptions, InterfaceModes};
 use crate::analysis::stability::{self, StabilityOptions};
 use crate::dynamics::abradable::CoatingMaterial;
+use crate::dynamics::numerics::Boundary;
 use crate::dynamics::recorder::{RecordError, Recorder, Sample};
 use crate::dynamics::scenario::{CoatingCase, Rotation};
 use crate::dynamics::structure::Structure;
@@ -341,7 +343,9 @@ impl ModelSimulator {
     /// the tips facing the casing, which a job would otherwise meet at its own start, are
     /// checked before any job runs. A job that cannot start is a spec issue at the property that
     /// made it extreme (Young's modulus or thickness, `/scenario/coating/…` or the grid's axis
-    /// when the grid sets it for the job), naming the job.
+    /// when the grid sets it for the job), naming the job. With a massless boundary the
+    /// coating force is solved with the displacement (no step limit) and the clearance offset
+    /// acts at rest, so the extremes are taken over all speeds, not at each one.
     pub fn check_coating_limits(&self, jobs: &[Job]) -> Result<(), SpecError> {
         // The stiffest sets the step's limit, the thickest the tips' clearance offset.
         let keys: [fn(&CoatingMaterial) -> f64; 2] = [|m| m.young / m.thickness, |m| m.thickness];
@@ -351,11 +355,11 @@ impl ModelSimulator {
                 continue;
             };
             let speed = job.params.speed_rad_s;
+            let per_speed = job.context.numerics.boundary == Boundary::Mass;
+            let same = |j: &Job| !per_speed || j.params.speed_rad_s == speed;
             for (which, key) in keys.iter().enumerate() {
                 let k = key(&c.material);
-                match (extreme.iter_mut())
-                    .find(|(j, _, w)| *w == which && j.params.speed_rad_s == speed)
-                {
+                match (extreme.iter_mut()).find(|(j, _, w)| *w == which && same(j)) {
                     Some(entry) if entry.1 >= k => {}
                     Some(entry) => *entry = (job, k, which),
                     None => extreme.push((job, k, which)),
@@ -367,11 +371,19 @@ impl ModelSimulator {
         extreme.sort_by_key(|&(_, _, which)| std::cmp::Reverse(which));
         let mut seen = std::collections::BTreeSet::new();
         extreme.retain(|(j, _, _)| seen.insert(j.index));
-        for (job, _, which) in extreme {
-            let (case, casing, _) = self
-                .case_for_job(job)
-                .map_err(|e| SpecError::one("", format!("{e:#}")))?;
-            if let Err(e) = Simulation::new(&case, &self.impeller, &casing) {
+        // Set up on every core (one per speed on a scan), the first failure in plan order
+        // reported, whatever the thread count.
+        let failures: Vec<Result<Option<SimError>, SpecError>> = extreme
+            .par_iter()
+            .map(|(job, _, _)| {
+                let (case, casing, _) = self
+                    .case_for_job(job)
+                    .map_err(|e| SpecError::one("", format!("{e:#}")))?;
+                Ok(Simulation::new(&case, &self.impeller, &casing).err())
+            })
+            .collect();
+        for ((job, _, which), failure) in extreme.into_iter().zip(failures) {
+            if let Some(e) = failure? {
                 // The property that made this job extreme, where the spec sets it for the job.
                 let c = &job.params.coating;
                 let path = match (which, c.young.is_some(), c.thickness.is_some()) {
