@@ -109,11 +109,14 @@ fn an_inertial_load_without_static_modes_is_a_correction_of_the_predictor() {
     let nb = st.n_sectors * st.n_boundary;
     let v0: Vec<f64> = (0..st.n_modal).map(|i| (i % 5) as f64 * 0.01).collect();
     let f: Vec<f64> = (0..nb).map(|i| ((i * 7) % 5) as f64 - 2.0).collect();
-    let fast =
-        |st: &Structure| -> Box<dyn StructureKernel> { Box::new(ModalKernel::new(st, h).unwrap()) };
-    let dense = |st: &Structure| -> Box<dyn StructureKernel> { Box::new(DenseKernel::new(st, h)) };
-    let kernels: [&dyn Fn(&Structure) -> Box<dyn StructureKernel>; 2] = [&fast, &dense];
-    for make in kernels {
+    for dense in [false, true] {
+        let make = |st: &Structure| -> Box<dyn StructureKernel> {
+            if dense {
+                Box::new(DenseKernel::new(st, h))
+            } else {
+                Box::new(ModalKernel::new(st, h).unwrap())
+            }
+        };
         let (mut loaded, mut corrected) = (make(&st), make(&st));
         for k in [&mut loaded, &mut corrected] {
             k.set_initial_velocity(&v0);

@@ -19,6 +19,15 @@ pub(super) struct Cand {
 }
 
 impl Cand {
+    /// Adds its force `λ · f_loc` (N, `lambda` its multiplier) to the impeller's boundary
+    /// forces `fi` (sector-major, `nbi` DOFs per blade).
+    pub(super) fn add_blade_force(&self, lambda: f64, nbi: usize, fi: &mut [f64]) {
+        let at = &mut fi[self.blade * nbi + 3 * self.row..][..3];
+        at.iter_mut()
+            .zip(self.f_loc.iter())
+            .for_each(|(x, f)| *x += lambda * f);
+    }
+
     /// Blade-tip node `node` (blade-major, `n_contact` per blade) as a candidate at its
     /// projection `p`, before its friction direction is known.
     pub(super) fn at(node: usize, n_contact: usize, p: &Projection) -> Self {

@@ -932,10 +932,7 @@ impl<'a> Simulation<'a> {
             if l == 0.0 || !c.on_coating(k) {
                 continue;
             }
-            fi[cd.blade * nbi + 3 * cd.row..][..3]
-                .iter_mut()
-                .zip(cd.f_loc.iter())
-                .for_each(|(x, f)| *x += l * f);
+            cd.add_blade_force(l, nbi, fi);
             if let Some(f) = &side.flexible {
                 let force = cd.fdir * (-l);
                 f.frames.add_force(
@@ -980,10 +977,7 @@ impl<'a> Simulation<'a> {
             if l == 0.0 {
                 continue;
             }
-            c.fi[cd.blade * nbi + 3 * cd.row..][..3]
-                .iter_mut()
-                .zip(cd.f_loc.iter())
-                .for_each(|(x, f)| *x += l * f);
+            cd.add_blade_force(l, nbi, &mut c.fi);
             // The rotation works through coating forces too.
             torque += b_nodes[cd.node].cross(&(l * cd.fdir)).z;
             if c.on_coating(k) {
