@@ -139,11 +139,11 @@ pub struct Plan {
 }
 
 /// Revision of what a job id stands for (module docs). 4: with a massless boundary the
-/// inertial modes carry the coating force's history (second order in the step); 3: the maxima are taken on every step,
-/// not on the sample steps only (so they no longer depend on `numerics.decimation`), and
-/// the built-in impeller's K(Ω) is the consistent prestress by default; 2: the
-/// massless boundary became the default and the formulation is always written (1: the
-/// paper's formulation was the unwritten default).
+/// inertial modes carry the coating force's history (second order in the step); 3: the
+/// maxima are taken on every step, not on the sample steps only (so they no longer depend
+/// on `numerics.decimation`), and the built-in impeller's K(Ω) is the consistent prestress
+/// by default; 2: the massless boundary became the default and the formulation is always
+/// written (1: the paper's formulation was the unwritten default).
 pub const JOB_IDENTITY: u32 = 4;
 
 /// Stable id of a job from its parameters and the shared context (see module docs).
