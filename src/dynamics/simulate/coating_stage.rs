@@ -470,6 +470,132 @@ impl CoatingStage {
     }
 }
 
+/// The coating's boxes of the time loop (Fig. 11).
+impl Simulation<'_> {
+    /// Box 3b (Fig. 11): the abradable coating's known forces, applied like corrections, then
+    /// the re-projection so that the Lagrange problem sees them in its predicted gaps.
+    pub(super) fn coating(&mut self) -> Result<(), SimError> {
+        let (Some(cs), Casing::Surface(side)) = (self.coating.as_mut(), &mut self.casing) else {
+            return Ok(());
+        };
+        if cs.implicit() {
+            // A massless boundary: the elements' laws join the contact problem (box 4).
+            return cs.laws_of(self.blades.n_contact, &self.projector.proj);
+        }
+        let fr = StepFrames {
+            spline: &side.spline,
+            q: &side.q,
+            past: &side.past,
+            lazy: side.lazy_table(),
+            casing: side.flexible.as_ref().map(|f| &f.frames),
+            r_om: &self.r_om,
+            rot_i: &self.blades.rot,
+            nci: self.blades.n_contact,
+        };
+        let any = cs.apply(
+            &fr,
+            &self.projector.proj,
+            &self.blades.nodes,
+            &self.blades.nodes_prev,
+        )?;
+        if !any {
+            return Ok(());
+        }
+        self.drive_work -= self.case.angular_velocity() * cs.torque * self.summary.time_step;
+        // Fused with the next predictors, as the Lagrange correction is (box 5): most coating
+        // steps have no Lagrange contact, and their next `predict` then only swaps in the
+        // predictor formed here. A Lagrange correction that follows forms it again from the
+        // fully corrected state (`correct_then_predict` may be repeated before `advance`).
+        let next_load = self.case.load_factor(self.t1);
+        self.blades
+            .kernel
+            .get_mut()
+            .correct_then_predict(&cs.fi, 0.0);
+        if let Some(f) = side.flexible.as_mut() {
+            f.kernel.get_mut().correct_then_predict(&cs.fc, next_load);
+        }
+        side.refresh()?;
+        self.blades.place(&self.r_om);
+        let p = &mut self.projector;
+        let (eps, spline, q) = (p.eps, &side.spline, &side.q);
+        // Only the nodes that may now touch the bare casing (the Lagrange candidates of box 3):
+        // the others keep a gap provably above 0, and a sample step finds the exact minimum gap
+        // in `gaps`.
+        let found = p.bounds.project_near(
+            spline,
+            q,
+            &self.blades.nodes,
+            &mut p.warm,
+            eps,
+            &mut p.proj,
+            0.0,
+            false,
+        );
+        found.map_err(projection_failed(self.t1))?;
+        cs.flag_penetrations(self.blades.n_contact, &self.projector.proj)?;
+        Ok(())
+    }
+
+    /// With a coating on a massless boundary: this step's coating forces on both boundaries,
+    /// and their history `F_{n−1} − F_n` to the next predictors' inertial modes (see
+    /// [`CoatingStage`]), before the corrections that form those predictors.
+    pub(super) fn coating_history(&mut self) -> Result<(), SimError> {
+        let (Some(cs), Casing::Surface(side)) = (
+            self.coating.as_mut().filter(|cs| cs.implicit()),
+            &mut self.casing,
+        ) else {
+            return Ok(());
+        };
+        let c = &self.contact;
+        let nbi = self.blades.nb;
+        let fi = cs.history_i.start();
+        let fc = cs.history_c.start();
+        for (k, (cd, &l)) in c.cands.iter().zip(&c.lambda).enumerate() {
+            if l == 0.0 || !c.on_coating(k) {
+                continue;
+            }
+            cd.add_blade_force(l, nbi, fi);
+            if let Some(f) = &side.flexible {
+                let force = cd.fdir * (-l);
+                f.frames.add_force(
+                    &side.spline,
+                    &cd.param,
+                    &force,
+                    (&mut cs.wu, &mut cs.wv),
+                    fc,
+                )?;
+            }
+        }
+        if let Some(load) = cs.history_i.load() {
+            self.blades.kernel.get_mut().add_inertial_load(load);
+        }
+        if let Some(f) = side.flexible.as_mut() {
+            f.frames.finish_forces(cs.history_c.now_mut());
+            if let Some(load) = cs.history_c.load() {
+                f.kernel.get_mut().add_inertial_load(load);
+            }
+        }
+        Ok(())
+    }
+
+    /// With a coating on a massless boundary: the coating forces and plastic shortenings the
+    /// contact solve found (box 4), into the coating's forces per blade and its pending
+    /// element states.
+    pub(super) fn coating_forces(&mut self) -> Result<(), SimError> {
+        let (Some(cs), c) = (self.coating.as_mut(), &self.contact) else {
+            return Ok(());
+        };
+        for (k, cd) in c.cands.iter().enumerate() {
+            if c.on_coating(k) {
+                // `refine_contact` leaves the gaps after the correction in `d`.
+                cs.implicit_force(cd.node, cd.blade, (c.lambda[k], c.plastic[k], c.d[k]))?;
+            }
+        }
+        cs.finish_step();
+        Ok(())
+    }
+}
+
 /// The gap (m) at angle `theta` (rad) of a tip going the shorter way round from `[θ₀, d₀]`
 /// to `[θ₁, d₁]` (angle in rad, gap in m) with its gap linear in the angle.
 fn gap_along_path([t0, d0]: [f64; 2], [t1, d1]: [f64; 2], theta: f64) -> f64 {

@@ -11,8 +11,8 @@
 //! Beside the loop, one file per concept: `blades` (the impeller side), `casing_side` (the
 //! spline surface, the flexible casing and its frames), `contact_problem` (box 4's
 //! candidates, Delassus operator and corrected gaps), `free_edge` (its rows where tips
-//! overhang the casing's edges), `coating_stage` (Fig. 11), `record` (box 6) and
-//! `runaway_watch`.
+//! overhang the casing's edges), `coating_stage` (Fig. 11), `record` (box 6),
+//! `runaway_watch`, and `setup` ([`Simulation::new`]).
 
 use crate::contact::spline::{cubic_basis, real_row_weights};
 use crate::contact::{
@@ -176,121 +176,6 @@ impl<T> Kernel<T> {
     }
 }
 
-/// The abradable coating's stage of a case (Fig. 11), checked against the casing kind and,
-/// with the paper's formulation, the explicit stability of its force (a massless boundary
-/// solves it implicitly, box 4); `None` without a coating.
-fn coating_stage(
-    case: &Case,
-    impeller: &CyclicRom,
-    blades: &mut Blades,
-    casing: &mut Casing,
-    steps_per_revolution: f64,
-) -> Result<Option<CoatingStage>, SimError> {
-    Ok(match (&case.coating, casing.surface_mut()) {
-        (Some(cc), Some(side)) => {
-            let mut cs = CoatingStage::new(cc, impeller, blades, case.friction, side)?;
-            cs.out.steps_per_element = steps_per_revolution / cc.eta as f64;
-            match case.numerics.boundary {
-                Boundary::Mass => cs.check_stability(blades, side.flexible.as_mut())?,
-                Boundary::Massless => {
-                    let nn = blades.n_blades * blades.n_contact;
-                    cs.node_law = vec![None; nn];
-                    cs.path_now = vec![[f64::NAN; 2]; nn];
-                    cs.path_prev = vec![[f64::NAN; 2]; nn];
-                }
-            }
-            Some(cs)
-        }
-        (Some(_), None) => {
-            return Err(SimError::InvalidCase(
-                "an abradable coating needs a casing surface (not an imposed-gap casing)".into(),
-            ));
-        }
-        (None, _) => None,
-    })
-}
-
-/// The accuracy-driven default time step (s) of a case at `omega` (rad/s):
-/// [`STEPS_PER_PERIOD`] steps per period of the highest dynamic mode of either structure,
-/// and at least [`STEPS_PER_REVOLUTION`] steps per revolution. Always below the stability
-/// limit `2/ω_max` (π/5 < 2).
-pub fn default_time_step(st_i: &Structure, st_c: Option<&Structure>, omega: f64) -> f64 {
-    let omega_max = st_c.map_or(st_i.omega_max, |c| c.omega_max.max(st_i.omega_max));
-    let per_mode = 2.0 * PI / (omega_max * STEPS_PER_PERIOD);
-    let per_revolution = 2.0 * PI / (omega.abs() * STEPS_PER_REVOLUTION);
-    per_mode.min(per_revolution)
-}
-
-/// Checks the case's scalars and the explicit stability limit `h < 2/ω_max` of both
-/// structures at the step `h` (s). Returns the limit (s) and the steps per revolution.
-fn check_stability(
-    case: &Case,
-    h: f64,
-    st_i: &Structure,
-    st_c: Option<&Structure>,
-) -> Result<(f64, f64), SimError> {
-    let num = &case.numerics;
-    num.validate().map_err(SimError::InvalidCase)?;
-    let bad = |m: String| Err(SimError::InvalidCase(m));
-    if !(case.omega.is_finite() && case.omega >= 0.0) {
-        return bad(format!(
-            "omega = {} rad/s must be finite and ≥ 0 (its sense is `rotation`)",
-            case.omega
-        ));
-    }
-    if !(case.duration.is_finite() && case.duration > 0.0) {
-        return bad(format!("duration = {} s must be > 0", case.duration));
-    }
-    if !(case.friction.is_finite() && case.friction >= 0.0) {
-        return bad(format!("friction = {} must be ≥ 0", case.friction));
-    }
-    if !(h.is_finite() && h > 0.0) {
-        return bad(format!(
-            "no time step: the default {h} s (neither structure has a dynamic mode and Ω = 0); \
-             set numerics.time_step_s"
-        ));
-    }
-    let (mut limit, mut omega_max, mut which) = (
-        st_i.stability_limit(),
-        st_i.omega_max,
-        format!("impeller `{}`", st_i.name),
-    );
-    if let Some(c) = st_c
-        && c.stability_limit() < limit
-    {
-        (limit, omega_max, which) = (
-            c.stability_limit(),
-            c.omega_max,
-            format!("casing `{}`", c.name),
-        );
-    }
-    let steps_per_rev = if case.omega != 0.0 {
-        2.0 * PI / (case.omega.abs() * h)
-    } else {
-        f64::INFINITY
-    };
-    if h >= limit {
-        let rev = if case.omega != 0.0 {
-            format!(
-                "; at Ω = {} rad/s one revolution needs at least {:.0} steps (h gives {:.0})",
-                case.omega,
-                (2.0 * PI / (case.omega.abs() * limit)).ceil(),
-                steps_per_rev
-            )
-        } else {
-            String::new()
-        };
-        return Err(SimError::Unstable {
-            h,
-            limit,
-            omega_max,
-            which,
-            rev,
-        });
-    }
-    Ok((limit, steps_per_rev))
-}
-
 /// Gap tolerance of the contact correction, relative to the casing radius R: after the
 /// correction no contact candidate penetrates the corrected casing by more than
 /// `GAP_TOLERANCE · R` (m), active or not: the active set of the contact solve is iterated
@@ -346,137 +231,6 @@ pub struct Simulation<'a> {
 }
 
 impl<'a> Simulation<'a> {
-    /// Builds the simulation of `case` for `impeller` rotating inside `casing`: checks the
-    /// case and the stability limit, builds both kernels (and their flexibility tables), the
-    /// casing spline, the casing load and the coating.
-    pub fn new(
-        case: &'a Case,
-        impeller: &CyclicRom,
-        casing: &CasingModel,
-    ) -> Result<Self, SimError> {
-        let num = &case.numerics;
-        let st_i = Structure::new(impeller, case.omega)?.with_numerics(num);
-        let st_c = match casing {
-            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?.with_numerics(num)),
-            CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
-        };
-        let h =
-            (num.time_step).unwrap_or_else(|| default_time_step(&st_i, st_c.as_ref(), case.omega));
-        let (limit, steps_per_revolution) = check_stability(case, h, &st_i, st_c.as_ref())?;
-        let casing_rom = match casing {
-            CasingModel::Flexible(rom) => Some(rom),
-            CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
-        };
-        let probes = resolve_probes(&case.probes, impeller, casing_rom)
-            .map_err(|e| SimError::InvalidCase(e.to_string()))?;
-        let mut blades = Blades::new(case, h, impeller, &st_i)?;
-        let mut casing = match casing {
-            CasingModel::ImposedGap(g) => {
-                // No surface: the offsets are radial (the profile holds the clearance).
-                blades.shift_tips(&case.clearance_offset, &blades.radial.clone());
-                let offsets: Vec<Vector3<f64>> = (blades.reference.iter())
-                    .zip(&impeller.contact_nodes)
-                    .map(|(x, c)| x - Vector3::from(c.position))
-                    .collect();
-                let imposed =
-                    ImposedCasing::new(g, impeller, &offsets, &blades.rot, case.angular_velocity());
-                Casing::Imposed(
-                    imposed
-                        .map_err(|e| SimError::InvalidCase(format!("imposed-gap casing: {e}")))?,
-                )
-            }
-            model => {
-                let side = CasingSide::new(case, h, model, st_c.as_ref())?;
-                blades.shift_tips_toward(case, &side)?;
-                Casing::Surface(side)
-            }
-        };
-        set_casing_load(case, h, st_c.as_ref(), &mut casing)?;
-        set_initial_velocities(case, &st_i, st_c.as_ref(), &mut blades, &mut casing)?;
-        let nn = blades.n_blades * blades.n_contact;
-        let coating = coating_stage(
-            case,
-            impeller,
-            &mut blades,
-            &mut casing,
-            steps_per_revolution,
-        )?;
-        if let Some(side) = casing.surface_mut() {
-            side.past.touched = vec![None; nn];
-            side.fold_spline()?;
-        }
-        let projector = Projector {
-            bounds: GapBounds::new(nn),
-            warm: vec![None; nn],
-            proj: vec![Projection::default(); nn],
-            eps: case.numerics.newton_tolerance,
-            margin: case.coating.as_ref().map_or(0.0, |c| c.material.thickness),
-            res_proj: vec![Projection::default(); 1],
-            res_warm: vec![None; 1],
-        };
-        let contact = ContactProblem::new(&blades, &casing);
-        let n_blades = blades.n_blades;
-        let n_nd = st_i.blocks.len();
-        let recovery = probes
-            .iter()
-            .any(|p| matches!(p.target, ProbeTarget::Recovery { .. }))
-            .then(|| {
-                let eval = RecoveryEval::new(&st_i);
-                (impeller.recovery.clone(), eval, vec![0.0; st_i.n_modal])
-            });
-        let casing_recovery = match (casing_rom, &st_c) {
-            (Some(rom), Some(st))
-                if probes
-                    .iter()
-                    .any(|p| matches!(p.target, ProbeTarget::CasingRecovery { .. })) =>
-            {
-                let eval = RecoveryEval::new(st);
-                Some((rom.recovery.clone(), eval, vec![0.0; st.n_modal]))
-            }
-            _ => None,
-        };
-        let casing_wave = st_c.as_ref().and_then(Structure::critical_wave_speed);
-        let watch = (num.stop_on_runaway)
-            .then(|| RunawayWatch::new(casing_wave, &st_i))
-            .flatten();
-        Ok(Self {
-            summary: RunSummary {
-                time_step: h,
-                stability_limit: limit,
-                steps_per_revolution,
-                n_steps: (case.duration / h).round() as usize,
-                ..Default::default()
-            },
-            case,
-            blades,
-            casing,
-            projector,
-            contact,
-            coating,
-            clock: StageClock::new(),
-            steps_done: 0,
-            t1: 0.0,
-            r_om: Matrix3::identity(),
-            sample_step: false,
-            min_gap: f64::INFINITY,
-            rubs: false,
-            residual: 0.0,
-            drive_work: 0.0,
-            casing_wave,
-            watch,
-            runaway: None,
-            sample_energy: 0.0,
-            le: vec![0.0; n_blades],
-            te: vec![0.0; n_blades],
-            casing_radial: vec![0.0; case.casing_probes.len()],
-            nd_energy: vec![0.0; n_nd],
-            probe_values: vec![0.0; probes.len()],
-            probes,
-            recovery,
-            casing_recovery,
-        })
-    }
-
     /// The time step h (s): the case's, or the default of [`default_time_step`].
     pub fn time_step(&self) -> f64 {
         self.summary.time_step
@@ -632,70 +386,6 @@ impl<'a> Simulation<'a> {
             false,
         );
         found.map(drop).map_err(projection_failed(self.t1))
-    }
-
-    /// Box 3b (Fig. 11): the abradable coating's known forces, applied like corrections, then
-    /// the re-projection so that the Lagrange problem sees them in its predicted gaps.
-    fn coating(&mut self) -> Result<(), SimError> {
-        let (Some(cs), Casing::Surface(side)) = (self.coating.as_mut(), &mut self.casing) else {
-            return Ok(());
-        };
-        if cs.implicit() {
-            // A massless boundary: the elements' laws join the contact problem (box 4).
-            return cs.laws_of(self.blades.n_contact, &self.projector.proj);
-        }
-        let fr = StepFrames {
-            spline: &side.spline,
-            q: &side.q,
-            past: &side.past,
-            lazy: side.lazy_table(),
-            casing: side.flexible.as_ref().map(|f| &f.frames),
-            r_om: &self.r_om,
-            rot_i: &self.blades.rot,
-            nci: self.blades.n_contact,
-        };
-        let any = cs.apply(
-            &fr,
-            &self.projector.proj,
-            &self.blades.nodes,
-            &self.blades.nodes_prev,
-        )?;
-        if !any {
-            return Ok(());
-        }
-        self.drive_work -= self.case.angular_velocity() * cs.torque * self.summary.time_step;
-        // Fused with the next predictors, as the Lagrange correction is (box 5): most coating
-        // steps have no Lagrange contact, and their next `predict` then only swaps in the
-        // predictor formed here. A Lagrange correction that follows forms it again from the
-        // fully corrected state (`correct_then_predict` may be repeated before `advance`).
-        let next_load = self.case.load_factor(self.t1);
-        self.blades
-            .kernel
-            .get_mut()
-            .correct_then_predict(&cs.fi, 0.0);
-        if let Some(f) = side.flexible.as_mut() {
-            f.kernel.get_mut().correct_then_predict(&cs.fc, next_load);
-        }
-        side.refresh()?;
-        self.blades.place(&self.r_om);
-        let p = &mut self.projector;
-        let (eps, spline, q) = (p.eps, &side.spline, &side.q);
-        // Only the nodes that may now touch the bare casing (the Lagrange candidates of box 3):
-        // the others keep a gap provably above 0, and a sample step finds the exact minimum gap
-        // in `gaps`.
-        let found = p.bounds.project_near(
-            spline,
-            q,
-            &self.blades.nodes,
-            &mut p.warm,
-            eps,
-            &mut p.proj,
-            0.0,
-            false,
-        );
-        found.map_err(projection_failed(self.t1))?;
-        cs.flag_penetrations(self.blades.n_contact, &self.projector.proj)?;
-        Ok(())
     }
 
     /// The contact candidates: every blade-tip node of negative predicted gap d* (eq. 14).
@@ -914,48 +604,6 @@ impl<'a> Simulation<'a> {
         Ok(())
     }
 
-    /// With a coating on a massless boundary: this step's coating forces on both boundaries,
-    /// and their history `F_{n−1} − F_n` to the next predictors' inertial modes (see
-    /// [`CoatingStage`]), before the corrections that form those predictors.
-    fn coating_history(&mut self) -> Result<(), SimError> {
-        let (Some(cs), Casing::Surface(side)) = (
-            self.coating.as_mut().filter(|cs| cs.implicit()),
-            &mut self.casing,
-        ) else {
-            return Ok(());
-        };
-        let c = &self.contact;
-        let nbi = self.blades.nb;
-        let fi = cs.history_i.start();
-        let fc = cs.history_c.start();
-        for (k, (cd, &l)) in c.cands.iter().zip(&c.lambda).enumerate() {
-            if l == 0.0 || !c.on_coating(k) {
-                continue;
-            }
-            cd.add_blade_force(l, nbi, fi);
-            if let Some(f) = &side.flexible {
-                let force = cd.fdir * (-l);
-                f.frames.add_force(
-                    &side.spline,
-                    &cd.param,
-                    &force,
-                    (&mut cs.wu, &mut cs.wv),
-                    fc,
-                )?;
-            }
-        }
-        if let Some(load) = cs.history_i.load() {
-            self.blades.kernel.get_mut().add_inertial_load(load);
-        }
-        if let Some(f) = side.flexible.as_mut() {
-            f.frames.finish_forces(cs.history_c.now_mut());
-            if let Some(load) = cs.history_c.load() {
-                f.kernel.get_mut().add_inertial_load(load);
-            }
-        }
-        Ok(())
-    }
-
     /// Box 5: the corrections `u_{n+1} = u* + A⁻¹ f_c` of both structures, opposite signs,
     /// fused with the next predictors; on sample steps the residual penetration.
     fn correct(&mut self) -> Result<(), SimError> {
@@ -1027,23 +675,6 @@ impl<'a> Simulation<'a> {
                 ),
             });
         }
-        Ok(())
-    }
-
-    /// With a coating on a massless boundary: the coating forces and plastic shortenings the
-    /// contact solve found (box 4), into the coating's forces per blade and its pending
-    /// element states.
-    fn coating_forces(&mut self) -> Result<(), SimError> {
-        let (Some(cs), c) = (self.coating.as_mut(), &self.contact) else {
-            return Ok(());
-        };
-        for (k, cd) in c.cands.iter().enumerate() {
-            if c.on_coating(k) {
-                // `refine_contact` leaves the gaps after the correction in `d`.
-                cs.implicit_force(cd.node, cd.blade, (c.lambda[k], c.plastic[k], c.d[k]))?;
-            }
-        }
-        cs.finish_step();
         Ok(())
     }
 
@@ -1233,39 +864,6 @@ impl<'a> Simulation<'a> {
     }
 }
 
-/// Sets the initial velocities of the case on both kernels (`u_{−1} = −h v_0`).
-fn set_initial_velocities(
-    case: &Case,
-    st_i: &Structure,
-    st_c: Option<&Structure>,
-    blades: &mut Blades,
-    casing: &mut Casing,
-) -> Result<(), SimError> {
-    if let Some(v) = &case.initial_velocity.impeller {
-        if v.len() != st_i.n_modal {
-            return Err(SimError::InvalidCase(format!(
-                "initial impeller velocity has {} entries, expected {}",
-                v.len(),
-                st_i.n_modal
-            )));
-        }
-        blades.kernel.get_mut().set_initial_velocity(v);
-    }
-    if let Some(v) = &case.initial_velocity.casing {
-        match (st_c, casing.flexible_mut()) {
-            (Some(s), Some(f)) if v.len() == s.n_modal => {
-                f.kernel.get_mut().set_initial_velocity(v)
-            }
-            _ => {
-                return Err(SimError::InvalidCase(
-                    "initial casing velocity needs a flexible casing and one entry per DOF".into(),
-                ));
-            }
-        }
-    }
-    Ok(())
-}
-
 /// Simulates `case` for `impeller` rotating inside `casing` (paper Fig. 4) and keeps every
 /// sample in memory ([`SeriesRecorder`]); `cancel` is polled every 1024 steps. For long runs
 /// use [`Simulation::run`] with a recorder whose memory is bounded.
@@ -1344,6 +942,7 @@ mod contact_problem;
 mod free_edge;
 mod record;
 mod runaway_watch;
+mod setup;
 #[cfg(test)]
 mod tests;
 
@@ -1358,3 +957,4 @@ use contact_problem::{
     casing_w, corrected_gaps, dense_pair_blocks, dense_w, translated,
 };
 use runaway_watch::RunawayWatch;
+pub use setup::default_time_step;
