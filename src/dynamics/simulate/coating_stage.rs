@@ -87,6 +87,9 @@ pub(super) struct ForceHistory {
     now: Vec<f64>,
     prev: Vec<f64>,
     load: Vec<f64>,
+    /// Whether `now` and `prev` hold a nonzero force: a step without one touches neither.
+    now_loaded: bool,
+    prev_loaded: bool,
 }
 
 impl ForceHistory {
@@ -95,15 +98,25 @@ impl ForceHistory {
             now: vec![0.0; n],
             prev: vec![0.0; n],
             load: vec![0.0; n],
+            now_loaded: false,
+            prev_loaded: false,
         }
     }
 
     /// Starts a step: the last step's forces become the previous ones; returns this step's,
-    /// zeroed, to be filled.
+    /// zeroed, to be filled ([`ForceHistory::mark_loaded`] when a force goes in).
     pub(super) fn start(&mut self) -> &mut [f64] {
         std::mem::swap(&mut self.now, &mut self.prev);
-        self.now.fill(0.0);
+        std::mem::swap(&mut self.now_loaded, &mut self.prev_loaded);
+        if std::mem::take(&mut self.now_loaded) {
+            self.now.fill(0.0);
+        }
         &mut self.now
+    }
+
+    /// This step's forces hold a nonzero one.
+    pub(super) fn mark_loaded(&mut self) {
+        self.now_loaded = true;
     }
 
     /// This step's forces (N), being filled.
@@ -113,12 +126,14 @@ impl ForceHistory {
 
     /// `F_{n−1} − F_n` (N), or `None` when both steps' forces are zero.
     pub(super) fn load(&mut self) -> Option<&[f64]> {
-        let mut any = false;
-        for (l, (p, n)) in self.load.iter_mut().zip(self.prev.iter().zip(&self.now)) {
-            *l = p - n;
-            any |= *p != 0.0 || *n != 0.0;
+        if !self.now_loaded && !self.prev_loaded {
+            return None;
         }
-        any.then_some(&self.load[..])
+        let forces = self.prev.iter().zip(&self.now);
+        for (l, (p, n)) in self.load.iter_mut().zip(forces) {
+            *l = p - n;
+        }
+        Some(&self.load[..])
     }
 }
 
@@ -550,10 +565,12 @@ impl Simulation<'_> {
         let nbi = self.blades.nb;
         let fi = cs.history_i.start();
         let fc = cs.history_c.start();
+        let mut loaded = false;
         for (k, (cd, &l)) in c.cands.iter().zip(&c.lambda).enumerate() {
             if l == 0.0 || !c.on_coating(k) {
                 continue;
             }
+            loaded = true;
             cd.add_blade_force(l, nbi, fi);
             if let Some(f) = &side.flexible {
                 let force = cd.fdir * (-l);
@@ -566,11 +583,17 @@ impl Simulation<'_> {
                 )?;
             }
         }
+        if loaded {
+            cs.history_i.mark_loaded();
+            cs.history_c.mark_loaded();
+        }
         if let Some(load) = cs.history_i.load() {
             self.blades.kernel.get_mut().add_inertial_load(load);
         }
         if let Some(f) = side.flexible.as_mut() {
-            f.frames.finish_forces(cs.history_c.now_mut());
+            if loaded {
+                f.frames.finish_forces(cs.history_c.now_mut());
+            }
             if let Some(load) = cs.history_c.load() {
                 f.kernel.get_mut().add_inertial_load(load);
             }
