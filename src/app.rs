@@ -432,7 +432,7 @@ pub fn simulate(
     if let Some(r) = &out.runaway {
         eprintln!(
             "UNSTABLE: runaway from {:.3} ms (σ = {:.1} 1/s, R² {:.2}, nodal diameter {:?}, {:?} Hz), \
-             stopped at {:.3} ms after {} of {} steps",
+             stopped at {:.3} ms after {} of {} steps{}",
             r.onset_time_s * 1e3,
             r.growth_rate_per_s,
             r.growth_fit_r2,
@@ -440,7 +440,12 @@ pub fn simulate(
             r.frequency_hz,
             r.detected_time_s * 1e3,
             out.steps_run,
-            out.n_steps
+            out.n_steps,
+            if r.at_solve_breakdown {
+                ", where it outran the contact solve"
+            } else {
+                ""
+            }
         );
     }
     for f in figures.iter().flatten() {

@@ -61,6 +61,7 @@ impl JobSimulator for Analytic {
             frequency_hz: Some(3800.0),
             forward: Some(true),
             rotating_frame_frequency_hz: Some(-10.0),
+            at_solve_breakdown: false,
         });
         Ok(r)
     }

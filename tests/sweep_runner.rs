@@ -253,7 +253,9 @@ fn parquet_reads_back_with_documented_columns_and_failures() {
             | "refinement_round"
             | "growing_nodal_diameter"
             | "predicted_nodal_diameter" => dt == &DataType::UInt32,
-            "growing_wave_forward" | "predicted_stable" => dt == &DataType::Boolean,
+            "growing_wave_forward" | "runaway_at_solve_breakdown" | "predicted_stable" => {
+                dt == &DataType::Boolean
+            }
             "strain_energy_per_nd_j" | "spectrum_amplitude_m" => f64_list(dt),
             "wear_profile_m" => matches!(dt, DataType::List(f) if f64_list(f.data_type())),
             "fourier_peaks" => match dt {

@@ -36,6 +36,12 @@
 //!    building up into a resonance, dissipates nearly all of it in friction).
 //!
 //! Of the onsets that pass, the one whose window fits an exponential best is reported. A
+//! growth that takes the contact solve past exactness, or breaks it, before it is confirmed
+//! (far above the critical wave speed the contact forces reach hundreds of kN within five
+//! periods) is confirmed there ([`RunawayMonitor::at_breakdown`]) when it passes tests 1–3
+//! and 5 with the unfinished block as its last: the growth has outrun the solve, which a
+//! bounded response does not (what test 4 stands for), and a growth that long and that
+//! large, fed by the drive, is no forced build-up (test 1's fast branch).
 //! ring-down never passes 2 (its last block is its lowest), so it is never called unstable.
 //! The amplitude growth rate is half the fitted slope of `ln E`.
 //!
@@ -106,6 +112,12 @@ pub struct Runaway {
     /// Its frequency in the rotating frame (Hz, signed: positive when it travels ahead of the
     /// blades), `f − kΩ/2π` for a forward wave of nodal diameter k; `None` as above.
     pub rotating_frame_frequency_hz: Option<f64>,
+    /// Whether the growth took the contact solve past exactness (a residual penetration
+    /// above `EXACT_CONTACT_SHARE` of the blade-tip level) or broke it before the watch's
+    /// steady-rate test could confirm it, and was confirmed there
+    /// ([`RunawayMonitor::at_breakdown`]). A step that broke is not kept.
+    #[serde(default)]
+    pub at_solve_breakdown: bool,
 }
 
 /// One block of the energy envelope.
@@ -195,7 +207,17 @@ impl RunawayMonitor {
         })?;
         self.push(done);
         self.closed += 1;
-        self.confirmed(t)
+        self.confirmed(t, true)
+    }
+
+    /// The growth at time `t` (s) when the contact solve has lost exactness or broken down:
+    /// the blocks since a candidate onset, the unfinished one last, passing every test of the
+    /// criterion but the steady rate (module doc). `None` when they do not: the breakdown is
+    /// then no finding.
+    pub fn at_breakdown(&self, t: f64) -> Option<Growth> {
+        let mut upto_now = self.clone();
+        upto_now.push(self.current?);
+        upto_now.confirmed(t, false)
     }
 
     /// Whether the envelope has grown by [`ARM_GROWTH`] since its lowest block: a candidate
@@ -229,9 +251,9 @@ impl RunawayMonitor {
     }
 
     /// The growth when the blocks from a candidate onset (a block lower than every later
-    /// one) to the last pass every test of the criterion; of several such onsets, the one
-    /// whose window fits an exponential best.
-    fn confirmed(&self, t: f64) -> Option<Growth> {
+    /// one) to the last pass every test of the criterion (test 4 only when `steady_rate`); of
+    /// several such onsets, the one whose window fits an exponential best.
+    fn confirmed(&self, t: f64, steady_rate: bool) -> Option<Growth> {
         let hi = self.blocks.back()?;
         // Candidate onsets, latest first, with whether no later block exceeds the last.
         let mut onsets = Vec::new();
@@ -245,13 +267,14 @@ impl RunawayMonitor {
         }
         (onsets.into_iter())
             .filter(|&(_, last_largest)| last_largest)
-            .filter_map(|(j, _)| self.growth_from(j, t))
+            .filter_map(|(j, _)| self.growth_from(j, t, steady_rate))
             .max_by(|a, b| a.fit_r2.total_cmp(&b.fit_r2))
     }
 
     /// The growth over the blocks from `onset` to the last, confirmed at time `t` (s), when
-    /// they pass tests 1–5 (the last block being known to be their largest).
-    fn growth_from(&self, onset: usize, t: f64) -> Option<Growth> {
+    /// they pass tests 1–5 (test 4 only when `steady_rate`; the last block being known to be
+    /// their largest).
+    fn growth_from(&self, onset: usize, t: f64, steady_rate: bool) -> Option<Growth> {
         let (lo, hi) = (&self.blocks[onset], self.blocks.back()?);
         let (periods, growth) = (self.blocks.len() - onset - 1, hi.energy / lo.energy);
         let long_enough = |min_periods, min_growth| periods >= min_periods && growth >= min_growth;
@@ -272,7 +295,8 @@ impl RunawayMonitor {
         let half = all.len() / 2;
         let (early_slope, _) = line_fit(&all[..=half])?;
         let (late_slope, _) = line_fit(&all[half..])?;
-        if !(slope > 0.0 && r2 >= MIN_FIT_R2 && late_slope >= MIN_SLOPE_RATIO * early_slope) {
+        let steady = late_slope >= MIN_SLOPE_RATIO * early_slope || !steady_rate;
+        if !(slope > 0.0 && r2 >= MIN_FIT_R2 && steady) {
             return None;
         }
         Some(Growth {
@@ -451,6 +475,40 @@ mod tests {
         let sigma = 0.5 * 10f64.ln() / 4.0 * f;
         let capture = |t: f64| (2.0 * sigma * t).exp().min(10.0);
         assert!(watch(wave(capture, f), 1.0 / f, 1e-6, 0.01).is_none());
+    }
+
+    /// A growth that slows down as it runs (ln E ∝ √t: four decades in six periods, the
+    /// second half's rate half the first's) is not confirmed by the watch; when the contact
+    /// solve breaks under it, it is confirmed at the breakdown. A bounded response, or a
+    /// decade gained and then held, is not: that breakdown is a failure.
+    #[test]
+    fn a_growth_that_breaks_the_solve_is_confirmed_at_the_breakdown() {
+        let f = 3500.0;
+        let fed = |env: &dyn Fn(f64) -> f64, t_end: f64| {
+            let mut m = RunawayMonitor::new(1.0 / f);
+            let energy = wave(env, f);
+            let n = (t_end * 1e6) as usize;
+            let called = (0..=n).find_map(|i| {
+                let t = i as f64 * 1e-6;
+                m.observe(t, energy(t), 2.0 * energy(t), 1.0)
+            });
+            (m, called)
+        };
+        let slowing = |t: f64| (1e4f64.ln() / 6f64.sqrt() * (t * f).sqrt()).exp();
+        let t_break = 6.6 / f;
+        let (m, called) = fed(&slowing, t_break);
+        assert!(called.is_none(), "{called:?}");
+        let g = m.at_breakdown(t_break).expect("confirmed at the breakdown");
+        assert!(g.energy_growth >= FAST_MIN_ENERGY_GROWTH, "{g:?}");
+        assert_eq!(g.detected_time_s, t_break);
+        for bounded in [
+            &(|_: f64| 1.0) as &dyn Fn(f64) -> f64,
+            &|t: f64| (t * f).powi(2).min(10.0),
+            &|t: f64| (-50.0 * t).exp(),
+        ] {
+            let (m, _) = fed(bounded, t_break);
+            assert!(m.at_breakdown(t_break).is_none());
+        }
     }
 
     #[test]

@@ -80,6 +80,7 @@ pub const OTHER_COLUMNS: &[&str] = &[
     "growing_wave_rotating_frequency_hz",
     "growing_nodal_diameter",
     "growing_wave_forward",
+    "runaway_at_solve_breakdown",
     "predicted_stable",
     "predicted_growth_rate_per_s",
     "predicted_nodal_diameter",

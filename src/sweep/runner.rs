@@ -176,8 +176,13 @@ fn unstable_note(rec: &JobRecord) -> String {
         (Some(k), None) => format!(", nodal diameter {k}"),
         _ => String::new(),
     };
+    let breakdown = if r.at_solve_breakdown {
+        " (where it outran the contact solve)"
+    } else {
+        ""
+    };
     format!(
-        "UNSTABLE: runaway from {:.2} ms, σ = {:.0} 1/s (R² {:.2}){wave}, stopped at {:.2} ms",
+        "UNSTABLE: runaway from {:.2} ms, σ = {:.0} 1/s (R² {:.2}){wave}, stopped at {:.2} ms{breakdown}",
         r.onset_time_s * 1e3,
         r.growth_rate_per_s,
         r.growth_fit_r2,

@@ -978,6 +978,7 @@ mod tests {
                 frequency_hz: None,
                 forward: None,
                 rotating_frame_frequency_hz: None,
+                at_solve_breakdown: false,
             }),
             ..Default::default()
         });

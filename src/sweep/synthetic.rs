@@ -194,6 +194,7 @@ impl SyntheticSimulator {
             frequency_hz: Some(f),
             forward: Some(true),
             rotating_frame_frequency_hz: Some(f - f64::from(lobes) * omega / TAU),
+            at_solve_breakdown: false,
         })
     }
 }

@@ -144,6 +144,11 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
         "unstable: whether the casing wave travels in the sense of rotation (fixed frame)",
     ),
     (
+        "runaway_at_solve_breakdown",
+        "",
+        "unstable: whether the growth broke the contact solve and was confirmed there",
+    ),
+    (
         "max_blade_le_radial_m",
         "m",
         "max |radial displacement| of blade leading edges, over every time step",
@@ -316,6 +321,10 @@ fn runaway_columns(rows: &[&(usize, JobRecord)], cols: &mut Vec<ArrayRef>) {
     cols.push(Arc::new(BooleanArray::from_iter(
         rows.iter().map(|(_, r)| runaway(r).and_then(|x| x.forward)),
     )));
+    cols.push(Arc::new(BooleanArray::from_iter(
+        rows.iter()
+            .map(|(_, r)| runaway(r).map(|x| x.at_solve_breakdown)),
+    )));
 }
 
 /// Appends the prediction columns of `rows` to `cols`.
@@ -377,6 +386,10 @@ fn runaway_of_row(b: &RecordBatch, i: usize) -> Result<Option<Runaway>> {
     };
     let nd = column::<UInt32Array>(b, "growing_nodal_diameter")?;
     let forward = column::<BooleanArray>(b, "growing_wave_forward")?;
+    // Tables before this column held only the watch's confirmations.
+    let at_breakdown = (b.column_by_name("runaway_at_solve_breakdown").is_some())
+        .then(|| column::<BooleanArray>(b, "runaway_at_solve_breakdown"))
+        .transpose()?;
     let need = |x: Option<f64>, k: usize| {
         x.with_context(|| format!("row {i}: {} is null for a runaway", RUNAWAY_F64[k].0))
     };
@@ -391,6 +404,7 @@ fn runaway_of_row(b: &RecordBatch, i: usize) -> Result<Option<Runaway>> {
         rotating_frame_frequency_hz: v[7],
         nodal_diameter: nd.is_valid(i).then(|| nd.value(i)),
         forward: forward.is_valid(i).then(|| forward.value(i)),
+        at_solve_breakdown: at_breakdown.is_some_and(|a| a.is_valid(i) && a.value(i)),
     }))
 }
 
@@ -966,6 +980,7 @@ mod tests {
                 frequency_hz: Some(3841.5),
                 forward: Some(true),
                 rotating_frame_frequency_hz: Some(10.2),
+                at_solve_breakdown: true,
             }),
             ..full.clone()
         };

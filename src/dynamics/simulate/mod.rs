@@ -114,6 +114,12 @@ fn radial(p: &[f64; 3]) -> Vector3<f64> {
     }
 }
 
+/// Residual penetration, as a share of the largest blade-tip displacement so far, above which
+/// the contact is no longer exact: a runaway that takes the solve there is confirmed at once
+/// (`Simulation::runaway_at_breakdown`), so that what a runaway job reports was computed with
+/// exact contact.
+pub const EXACT_CONTACT_SHARE: f64 = 1e-8;
+
 /// The error of a failed closest-point projection at time `time` (s).
 fn projection_failed(time: f64) -> impl Fn(NodeProjectionError) -> SimError {
     move |e| SimError::Projection {
@@ -237,7 +243,9 @@ impl<'a> Simulation<'a> {
     }
 
     /// Runs every step, polling `cancel` every 1024 steps; hands each sample to `recorder`.
-    /// A confirmed runaway ends the run early, with the finding in the summary.
+    /// A confirmed runaway ends the run early, with the finding in the summary; so does a
+    /// growth that takes the contact solve past exactness or breaks it before the watch has
+    /// confirmed it (`Simulation::runaway_at_breakdown`), at the step before.
     pub fn run(
         mut self,
         recorder: &mut dyn Recorder,
@@ -254,7 +262,13 @@ impl<'a> Simulation<'a> {
                     time: self.steps_done as f64 * self.summary.time_step,
                 });
             }
-            self.step(recorder)?;
+            if let Err(e) = self.step(recorder)
+                && self.runaway.is_none()
+            {
+                let broke = matches!(e, SimError::Diverged { .. } | SimError::Projection { .. });
+                let runaway = broke.then(|| self.runaway_at_breakdown()).flatten();
+                self.runaway = Some(runaway.ok_or(e)?);
+            }
             if self.runaway.is_some() {
                 break;
             }
@@ -659,21 +673,33 @@ impl<'a> Simulation<'a> {
 
     /// This step's residual penetration (m) into the run's summary: its maximum, and a count
     /// of the steps above the gap tolerance. A divergence when above 1e-4 of the casing
-    /// radius.
+    /// radius; the end of the run, this step not kept, when above [`EXACT_CONTACT_SHARE`] of
+    /// the blade-tip level while the watch sees a runaway.
     fn check_residual(&mut self) -> Result<(), SimError> {
-        let s = &mut self.summary;
-        s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
-        if self.residual > self.casing.gap_tolerance() {
-            s.steps_over_gap_tolerance += 1;
+        let s = &self.summary;
+        let diverged = self.residual > 1e-4 * self.casing.radius_scale().max(1e-3);
+        let tolerance = self.casing.gap_tolerance();
+        let inexact = self.residual > tolerance.max(EXACT_CONTACT_SHARE * s.peaks.blade_radial());
+        // The watch confirms runaways after a step, so none is set yet unless confirmed here.
+        if !diverged && inexact && self.runaway.is_none() {
+            self.runaway = self.runaway_at_breakdown();
         }
-        if self.residual > 1e-4 * self.casing.radius_scale().max(1e-3) {
+        if diverged || self.runaway.is_some() {
+            let level = self.summary.peaks.blade_radial();
             return Err(SimError::Diverged {
                 time: self.t1,
                 reason: format!(
-                    "residual penetration {:.3e} m after correction",
-                    self.residual
+                    "residual penetration {:.3e} m after correction ({:.2e} of the blade-tip \
+                     level {level:.3e} m)",
+                    self.residual,
+                    self.residual / level
                 ),
             });
+        }
+        let s = &mut self.summary;
+        s.max_residual_penetration = s.max_residual_penetration.max(self.residual);
+        if self.residual > tolerance {
+            s.steps_over_gap_tolerance += 1;
         }
         Ok(())
     }

@@ -4,7 +4,7 @@
 //! is followed ([`WaveTracker`]) so that a confirmed runaway names its wave.
 
 use super::{Casing, FlexibleCasing, Simulation, node_disp};
-use crate::dynamics::runaway::{Runaway, RunawayMonitor, WaveTracker, sector_harmonic};
+use crate::dynamics::runaway::{Growth, Runaway, RunawayMonitor, WaveTracker, sector_harmonic};
 use crate::dynamics::structure::Structure;
 use std::f64::consts::TAU;
 
@@ -65,27 +65,48 @@ impl Simulation<'_> {
         // The wave followed so far names the runaway (choosing again on the confirming
         // sample could restart its phase).
         if let Some(g) = growth {
-            let (nodal_diameter, rate) = self.growing_wave(&mut watch);
-            // ψ̇ − k ω_z: the phase rate seen from the rotating frame; both signed about +z,
-            // then taken in the sense of rotation.
-            let sense = self.case.rotation.sign();
-            let relative = rate
-                .zip(nodal_diameter)
-                .map(|(r, k)| sense * (r - k as f64 * self.case.angular_velocity()));
-            self.runaway = Some(Runaway {
-                onset_time_s: g.onset_time_s,
-                detected_time_s: g.detected_time_s,
-                growth_rate_per_s: 0.5 * g.energy_rate_per_s,
-                growth_fit_r2: g.fit_r2,
-                energy_growth: g.energy_growth,
-                drive_work_j: g.drive_work_j,
-                nodal_diameter,
-                frequency_hz: rate.map(|r| r.abs() / TAU),
-                forward: rate.map(|r| sense * r > 0.0),
-                rotating_frame_frequency_hz: relative.map(|r| r / TAU),
-            });
+            self.runaway = Some(self.runaway_of(g, &mut watch, false));
         }
         self.watch = Some(watch);
+    }
+
+    /// The runaway when this step's contact solve has lost exactness or broken down under a
+    /// growth that the watch confirms at the step before, the last one kept
+    /// ([`RunawayMonitor::at_breakdown`]); `None` when it sees no such growth: the breakdown
+    /// is then no finding.
+    pub(super) fn runaway_at_breakdown(&mut self) -> Option<Runaway> {
+        let t = self.steps_done as f64 * self.summary.time_step;
+        let mut watch = self.watch.take()?;
+        let runaway = (watch.monitor.armed())
+            .then(|| watch.monitor.at_breakdown(t))
+            .flatten()
+            .map(|g| self.runaway_of(g, &mut watch, true));
+        self.watch = Some(watch);
+        runaway
+    }
+
+    /// The finding of a confirmed growth `g`, named by the wave followed so far.
+    fn runaway_of(&mut self, g: Growth, watch: &mut RunawayWatch, at_breakdown: bool) -> Runaway {
+        let (nodal_diameter, rate) = self.growing_wave(watch);
+        // ψ̇ − k ω_z: the phase rate seen from the rotating frame; both signed about +z,
+        // then taken in the sense of rotation.
+        let sense = self.case.rotation.sign();
+        let relative = rate
+            .zip(nodal_diameter)
+            .map(|(r, k)| sense * (r - k as f64 * self.case.angular_velocity()));
+        Runaway {
+            onset_time_s: g.onset_time_s,
+            detected_time_s: g.detected_time_s,
+            growth_rate_per_s: 0.5 * g.energy_rate_per_s,
+            growth_fit_r2: g.fit_r2,
+            energy_growth: g.energy_growth,
+            drive_work_j: g.drive_work_j,
+            nodal_diameter,
+            frequency_hz: rate.map(|r| r.abs() / TAU),
+            forward: rate.map(|r| sense * r > 0.0),
+            rotating_frame_frequency_hz: relative.map(|r| r / TAU),
+            at_solve_breakdown: at_breakdown,
+        }
     }
 
     /// Follows the flexible casing's largest radial harmonic (k ≥ 1) on the contact surface,
