@@ -644,7 +644,9 @@ fn run_round(
     let write_error: Mutex<Option<anyhow::Error>> = Mutex::new(None);
     let cancel = &*opts.cancel;
     pool.install(|| {
-        pending.par_iter().for_each(|&job| {
+        // One job per work item: rayon's default leaves of several jobs would leave the last
+        // leaf's jobs to one thread while the others idle (a tenth of the headline scan's wall).
+        pending.par_iter().with_max_len(1).for_each(|&job| {
             if cancel.load(Ordering::SeqCst) {
                 return;
             }
