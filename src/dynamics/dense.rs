@@ -10,6 +10,7 @@ use faer::{Accum, Mat, MatRef, Par};
 use nalgebra::DMatrix;
 
 /// Dense central-difference kernel of one structure.
+#[derive(Clone)]
 pub(crate) struct DenseKernel {
     ns: usize,
     nb: usize,
@@ -40,6 +41,7 @@ pub(crate) struct DenseKernel {
 
 /// The static modes of a massless-boundary structure (see [`Structure::discretized`]): the
 /// `M'`-orthogonal projector on them, per nodal diameter, in harmonic coordinates.
+#[derive(Clone)]
 struct StaticModes {
     /// Per block: offset and `Φ_s Φ_sᵀ M'` (dim × dim).
     projectors: Vec<(usize, DMatrix<f64>)>,

@@ -45,6 +45,7 @@ use realfft::num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use std::sync::Arc;
 
+#[derive(Clone)]
 struct Block {
     offset: usize,
     /// Real-form order: `n` (real harmonic) or `2n`.
@@ -77,6 +78,7 @@ impl Block {
 }
 
 /// The fast modal/FFT kernel of one structure.
+#[derive(Clone)]
 pub struct ModalKernel {
     ns: usize,
     nb: usize,
@@ -854,6 +856,7 @@ fn surface_harmonics(
 }
 
 /// The re-paired eigenbasis of a complex harmonic (see `paired_modes`).
+#[derive(Clone)]
 struct PairedBasis {
     /// `[v_1 … v_n, Jv_1 … Jv_n]`, M-orthonormal.
     modes: DMatrix<f64>,

@@ -17,6 +17,7 @@ use crate::dynamics::abradable::CoatingMaterial;
 use crate::dynamics::numerics::Boundary;
 use crate::dynamics::recorder::{RecordError, Recorder, Sample};
 use crate::dynamics::scenario::{CoatingCase, Rotation};
+use crate::dynamics::simulate::CasingCache;
 use crate::dynamics::structure::Structure;
 use crate::dynamics::{
     Case, CasingModel, LobeLoad, RigidShape, RigidSurface, SimError, Simulation,
@@ -80,6 +81,8 @@ pub struct ModelSimulator {
     job_time_limit_s: Option<f64>,
     /// The sense of rotation of the sweep.
     rotation: Rotation,
+    /// The flexible casing's structure and side, shared by the jobs (they do not depend on Ω).
+    casing_cache: CasingCache,
 }
 
 /// Stops a simulation whose wall-clock time passes a limit: a recorder that fails the
@@ -263,6 +266,7 @@ impl ModelSimulator {
             timeseries_dir: None,
             job_time_limit_s: spec.job_time_limit_s,
             rotation: spec.models.rotation,
+            casing_cache: CasingCache::default(),
         })
     }
 
@@ -372,14 +376,20 @@ impl ModelSimulator {
         let mut seen = std::collections::BTreeSet::new();
         extreme.retain(|(j, _, _)| seen.insert(j.index));
         // Set up on every core (one per speed on a scan), the first failure in plan order
-        // reported, whatever the thread count.
+        // reported, whatever the thread count. faer runs sequentially inside, as in the jobs
+        // (crates.md pitfall 2): the casing built here is the jobs' (`CasingCache`), to the bit
+        // whatever the core count.
+        faer::set_global_parallelism(faer::Par::Seq);
         let failures: Vec<Result<Option<SimError>, SpecError>> = extreme
             .par_iter()
             .map(|(job, _, _)| {
                 let (case, casing, _) = self
                     .case_for_job(job)
                     .map_err(|e| SpecError::one("", format!("{e:#}")))?;
-                Ok(Simulation::new(&case, &self.impeller, &casing).err())
+                Ok(
+                    Simulation::with_cache(&case, &self.impeller, &casing, &self.casing_cache)
+                        .err(),
+                )
             })
             .collect();
         for ((job, _, which), failure) in extreme.into_iter().zip(failures) {
@@ -532,8 +542,8 @@ impl JobSimulator for ModelSimulator {
             window_start,
             JobAggregator::DEFAULT_WINDOW_SAMPLES,
         );
-        let simulation =
-            Simulation::new(&case, &self.impeller, &casing).map_err(|e| e.to_string())?;
+        let simulation = Simulation::with_cache(&case, &self.impeller, &casing, &self.casing_cache)
+            .map_err(|e| e.to_string())?;
         // The clock starts with the time loop: building the case is not the job's run.
         let reporter = StepReporter {
             steps,
@@ -615,6 +625,39 @@ fn nearest(table: &[CriticalSpeed], omega: f64) -> Option<CriticalSpeed> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Jobs that take the casing's structure and side from the sweep's cache (built by the
+    /// plan-time coating check on the rayon pool, then by the first job at a new step) run to
+    /// the bit as jobs that build their own. The quickstart, coated, 5 ms, at two speeds.
+    #[test]
+    fn jobs_sharing_the_casing_run_as_jobs_building_their_own() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/quickstart.json");
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        v["scenario"]["duration_s"] = 5e-3.into();
+        v["scenario"]["coating"] = serde_json::json!({});
+        v["grid"]["speed"]["values"] = serde_json::json!([2000, 3500]);
+        let spec = crate::sweep::parse_spec(&v.to_string()).unwrap();
+        let sim = ModelSimulator::new(&spec).unwrap();
+        let jobs = crate::sweep::plan(&spec).unwrap().jobs;
+        sim.check_coating_limits(&jobs).unwrap();
+        let run = |s: Simulation<'_>| {
+            let mut rec = crate::dynamics::recorder::SeriesRecorder::default();
+            let mut summary = s.run(&mut rec, None).unwrap();
+            (summary.loop_seconds, summary.stage_seconds) = Default::default();
+            (summary, rec.out.time.len())
+        };
+        for job in &jobs {
+            let (case, casing, _) = sim.case_for_job(job).unwrap();
+            let shared =
+                Simulation::with_cache(&case, &sim.impeller, &casing, &sim.casing_cache).unwrap();
+            let own = Simulation::new(&case, &sim.impeller, &casing).unwrap();
+            let (a, b) = (run(shared), run(own));
+            assert!(a.0.peaks.blade_radial() > 0.0 && a.0.coating.is_some());
+            assert_eq!(a, b, "Ω = {}", case.omega);
+        }
+        assert_eq!(sim.casing_cache.sides_kept(), 1);
+    }
 
     #[test]
     fn rigid_meridian_offsets_along_the_shroud_side_normal() {

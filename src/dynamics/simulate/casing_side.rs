@@ -12,6 +12,7 @@ use super::*;
 pub const CASING_PEAK_INTERVAL: f64 = 2e-6;
 
 /// The flexible casing's kernel, frames and probe buffers.
+#[derive(Clone)]
 pub(super) struct FlexibleCasing {
     pub(super) kernel: Kernel<ControlFlexTable>,
     pub(super) frames: CasingFrames,
@@ -31,6 +32,7 @@ pub(super) struct FlexibleCasing {
 }
 
 /// The casing in the time loop: its spline surface (eqs. 5–13) and, when flexible, its kernel.
+#[derive(Clone)]
 pub(super) struct CasingSide {
     pub(super) spline: CasingSpline,
     pub(super) n_sectors: usize,
@@ -318,6 +320,7 @@ pub(super) fn set_casing_load(
 /// [`StructureKernel::correct_state_then_predict`] (fast kernel), whose displacement of a
 /// surface point is `Σ_b V(p, p_b) F_b` through the control-point flexibility `flex`
 /// (eq. 18). Without `flex` (dense kernel), `q` is the corrected state itself.
+#[derive(Clone)]
 pub(super) struct PastSurface {
     /// Control points (m, global).
     pub(super) q: Vec<Vector3<f64>>,
@@ -404,6 +407,7 @@ pub(super) fn rotate_to_sector_frames(rot_c: &[Matrix3<f64>], mc: usize, fc: &mu
 }
 
 /// The flexible casing's geometry in the time loop, and which channels its kernel uses.
+#[derive(Clone)]
 pub(super) struct CasingFrames {
     /// True when the spline is folded into the kernel ([`StructureKernel::map_to_surface`]):
     /// the kernel's channels are control-point rows 1..=M per column class, else contact nodes.

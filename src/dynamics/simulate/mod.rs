@@ -131,6 +131,7 @@ fn projection_failed(time: f64) -> impl Fn(NodeProjectionError) -> SimError {
 /// The linear-algebra kernel of one structure with the flexibility the contact solve reads:
 /// the fast modal kernel with its precomputed table `T`, or the dense reference with its
 /// boundary flexibility `A⁻¹` restricted to the boundary DOFs.
+#[derive(Clone)]
 enum Kernel<T> {
     Modal {
         kernel: ModalKernel,
@@ -983,4 +984,5 @@ use contact_problem::{
     casing_w, corrected_gaps, dense_pair_blocks, dense_w, translated,
 };
 use runaway_watch::RunawayWatch;
+pub(crate) use setup::CasingCache;
 pub use setup::default_time_step;

@@ -3,6 +3,8 @@
 //! the coating stage; the loop that then steps it is in `mod.rs`.
 
 use super::*;
+use crate::dynamics::numerics::Numerics;
+use std::sync::{Arc, Mutex};
 
 /// The abradable coating's stage of a case (Fig. 11), checked against the casing kind and,
 /// with the paper's formulation, the explicit stability of its force (a massless boundary
@@ -119,6 +121,84 @@ fn check_stability(
     Ok((limit, steps_per_rev))
 }
 
+/// A flexible casing's structure and time-loop side, built once per numerics and time step
+/// and copied into every job that meets them again: neither depends on the rotation speed
+/// (70 of the 95 ms that a headline job spends before its time loop). One cache serves one
+/// casing ROM: a sweep's (`ModelSimulator`).
+#[derive(Default)]
+pub(crate) struct CasingCache {
+    structures: Mutex<Vec<(Numerics, Arc<Structure>)>>,
+    sides: Mutex<Vec<(SideKey, Arc<CasingSide>)>>,
+}
+
+impl std::fmt::Debug for CasingCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CasingCache")
+            .field("structures", &self.structures.lock().map_or(0, |v| v.len()))
+            .field("sides", &self.sides.lock().map_or(0, |v| v.len()))
+            .finish()
+    }
+}
+
+/// What a casing side is built from besides the casing ROM.
+#[derive(PartialEq)]
+struct SideKey {
+    numerics: Numerics,
+    casing_probes: Vec<[usize; 2]>,
+    time_step_bits: u64,
+}
+
+impl CasingCache {
+    /// The casing's structure under `num`: the cached one, or built by `build` and kept.
+    fn structure(
+        &self,
+        num: &Numerics,
+        build: impl FnOnce() -> Result<Structure, SimError>,
+    ) -> Result<Arc<Structure>, SimError> {
+        let mut kept = self.structures.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((_, st)) = kept.iter().find(|(n, _)| n == num) {
+            return Ok(st.clone());
+        }
+        let st = Arc::new(build()?);
+        kept.push((num.clone(), st.clone()));
+        Ok(st)
+    }
+
+    /// How many casing sides are kept (one per time step and numerics met).
+    #[cfg(test)]
+    pub(crate) fn sides_kept(&self) -> usize {
+        self.sides.lock().map_or(0, |v| v.len())
+    }
+
+    /// A copy of the casing side of `case` at step `h` (s): of the cached one, or built by
+    /// `build` and kept.
+    fn side(
+        &self,
+        case: &Case,
+        h: f64,
+        build: impl FnOnce() -> Result<CasingSide, SimError>,
+    ) -> Result<CasingSide, SimError> {
+        let key = SideKey {
+            numerics: case.numerics.clone(),
+            casing_probes: case.casing_probes.clone(),
+            time_step_bits: h.to_bits(),
+        };
+        // Built outside the lock: two threads may both build the first one, never wait on it.
+        let cached = (self.sides.lock().unwrap_or_else(|p| p.into_inner()).iter())
+            .find(|(k, _)| *k == key)
+            .map(|(_, side)| side.clone());
+        if let Some(side) = cached {
+            return Ok((*side).clone());
+        }
+        let side = build()?;
+        let mut kept = self.sides.lock().unwrap_or_else(|p| p.into_inner());
+        if !kept.iter().any(|(k, _)| *k == key) {
+            kept.push((key, Arc::new(side.clone())));
+        }
+        Ok(side)
+    }
+}
+
 impl<'a> Simulation<'a> {
     /// Builds the simulation of `case` for `impeller` rotating inside `casing`: checks the
     /// case and the stability limit, builds both kernels (and their flexibility tables), the
@@ -128,15 +208,28 @@ impl<'a> Simulation<'a> {
         impeller: &CyclicRom,
         casing: &CasingModel,
     ) -> Result<Self, SimError> {
+        Self::with_cache(case, impeller, casing, &CasingCache::default())
+    }
+
+    /// [`Simulation::new`], with the flexible casing's structure and side taken from `cache`
+    /// (whose casing ROM `casing` must be) when it holds them.
+    pub(crate) fn with_cache(
+        case: &'a Case,
+        impeller: &CyclicRom,
+        casing: &CasingModel,
+        cache: &CasingCache,
+    ) -> Result<Self, SimError> {
         let num = &case.numerics;
         let st_i = Structure::new(impeller, case.omega)?.with_numerics(num);
         let st_c = match casing {
-            CasingModel::Flexible(rom) => Some(Structure::new(rom, 0.0)?.with_numerics(num)),
+            CasingModel::Flexible(rom) => {
+                Some(cache.structure(num, || Ok(Structure::new(rom, 0.0)?.with_numerics(num)))?)
+            }
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
-        let h =
-            (num.time_step).unwrap_or_else(|| default_time_step(&st_i, st_c.as_ref(), case.omega));
-        let (limit, steps_per_revolution) = check_stability(case, h, &st_i, st_c.as_ref())?;
+        let st_c = st_c.as_deref();
+        let h = (num.time_step).unwrap_or_else(|| default_time_step(&st_i, st_c, case.omega));
+        let (limit, steps_per_revolution) = check_stability(case, h, &st_i, st_c)?;
         let casing_rom = match casing {
             CasingModel::Flexible(rom) => Some(rom),
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
@@ -159,14 +252,19 @@ impl<'a> Simulation<'a> {
                         .map_err(|e| SimError::InvalidCase(format!("imposed-gap casing: {e}")))?,
                 )
             }
+            model @ CasingModel::Flexible(_) => {
+                let side = cache.side(case, h, || CasingSide::new(case, h, model, st_c))?;
+                blades.shift_tips_toward(case, &side)?;
+                Casing::Surface(side)
+            }
             model => {
-                let side = CasingSide::new(case, h, model, st_c.as_ref())?;
+                let side = CasingSide::new(case, h, model, st_c)?;
                 blades.shift_tips_toward(case, &side)?;
                 Casing::Surface(side)
             }
         };
-        set_casing_load(case, h, st_c.as_ref(), &mut casing)?;
-        set_initial_velocities(case, &st_i, st_c.as_ref(), &mut blades, &mut casing)?;
+        set_casing_load(case, h, st_c, &mut casing)?;
+        set_initial_velocities(case, &st_i, st_c, &mut blades, &mut casing)?;
         let nn = blades.n_blades * blades.n_contact;
         let coating = coating_stage(
             case,
@@ -209,7 +307,7 @@ impl<'a> Simulation<'a> {
             }
             _ => None,
         };
-        let casing_wave = st_c.as_ref().and_then(Structure::critical_wave_speed);
+        let casing_wave = st_c.and_then(Structure::critical_wave_speed);
         let watch = (num.stop_on_runaway)
             .then(|| RunawayWatch::new(casing_wave, &st_i))
             .flatten();
