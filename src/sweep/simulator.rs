@@ -380,18 +380,22 @@ impl ModelSimulator {
         // (crates.md pitfall 2): the casing built here is the jobs' (`CasingCache`), to the bit
         // whatever the core count.
         faer::set_global_parallelism(faer::Par::Seq);
-        let failures: Vec<Result<Option<SimError>, SpecError>> = extreme
-            .par_iter()
-            .map(|(job, _, _)| {
-                let (case, casing, _) = self
-                    .case_for_job(job)
-                    .map_err(|e| SpecError::one("", format!("{e:#}")))?;
-                Ok(
-                    Simulation::with_cache(&case, &self.impeller, &casing, &self.casing_cache)
-                        .err(),
-                )
-            })
-            .collect();
+        let failures: Vec<Result<Option<SimError>, SpecError>> =
+            extreme
+                .par_iter()
+                .map(|(job, _, _)| {
+                    let (case, casing, _) = self
+                        .case_for_job(job)
+                        .map_err(|e| SpecError::one("", format!("{e:#}")))?;
+                    Ok(Simulation::with_cache(
+                        &case,
+                        &self.impeller,
+                        &casing,
+                        Some(&self.casing_cache),
+                    )
+                    .err())
+                })
+                .collect();
         for ((job, _, which), failure) in extreme.into_iter().zip(failures) {
             if let Some(e) = failure? {
                 // The property that made this job extreme, where the spec sets it for the job.
@@ -542,8 +546,9 @@ impl JobSimulator for ModelSimulator {
             window_start,
             JobAggregator::DEFAULT_WINDOW_SAMPLES,
         );
-        let simulation = Simulation::with_cache(&case, &self.impeller, &casing, &self.casing_cache)
-            .map_err(|e| e.to_string())?;
+        let simulation =
+            Simulation::with_cache(&case, &self.impeller, &casing, Some(&self.casing_cache))
+                .map_err(|e| e.to_string())?;
         // The clock starts with the time loop: building the case is not the job's run.
         let reporter = StepReporter {
             steps,
@@ -650,7 +655,8 @@ mod tests {
         for job in &jobs {
             let (case, casing, _) = sim.case_for_job(job).unwrap();
             let shared =
-                Simulation::with_cache(&case, &sim.impeller, &casing, &sim.casing_cache).unwrap();
+                Simulation::with_cache(&case, &sim.impeller, &casing, Some(&sim.casing_cache))
+                    .unwrap();
             let own = Simulation::new(&case, &sim.impeller, &casing).unwrap();
             let (a, b) = (run(shared), run(own));
             assert!(a.0.peaks.blade_radial() > 0.0 && a.0.coating.is_some());

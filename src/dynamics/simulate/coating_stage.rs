@@ -573,14 +573,7 @@ impl Simulation<'_> {
             loaded = true;
             cd.add_blade_force(l, nbi, fi);
             if let Some(f) = &side.flexible {
-                let force = cd.fdir * (-l);
-                f.frames.add_force(
-                    &side.spline,
-                    &cd.param,
-                    &force,
-                    (&mut cs.wu, &mut cs.wv),
-                    fc,
-                )?;
+                cd.add_casing_force(l, (&f.frames, &side.spline), (&mut cs.wu, &mut cs.wv), fc)?;
             }
         }
         if loaded {

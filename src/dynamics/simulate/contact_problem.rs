@@ -28,6 +28,20 @@ impl Cand {
             .for_each(|(x, f)| *x += lambda * f);
     }
 
+    /// Adds the casing's share `−λ · fdir` (N, global) of its force to the casing load `fc`
+    /// ([`CasingFrames::add_force`]; `scratch` of lengths N and M); returns that force.
+    pub(super) fn add_casing_force(
+        &self,
+        lambda: f64,
+        (frames, spline): (&CasingFrames, &CasingSpline),
+        scratch: (&mut [f64], &mut [f64]),
+        fc: &mut [f64],
+    ) -> Result<Vector3<f64>, SimError> {
+        let force = self.fdir * (-lambda);
+        frames.add_force(spline, &self.param, &force, scratch, fc)?;
+        Ok(force)
+    }
+
     /// Blade-tip node `node` (blade-major, `n_contact` per blade) as a candidate at its
     /// projection `p`, before its friction direction is known.
     pub(super) fn at(node: usize, n_contact: usize, p: &Projection) -> Self {

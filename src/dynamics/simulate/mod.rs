@@ -677,16 +677,15 @@ impl<'a> Simulation<'a> {
     /// radius; the end of the run, this step not kept, when above [`EXACT_CONTACT_SHARE`] of
     /// the blade-tip level while the watch sees a runaway.
     fn check_residual(&mut self) -> Result<(), SimError> {
-        let s = &self.summary;
+        let level = self.summary.peaks.blade_radial();
         let diverged = self.residual > 1e-4 * self.casing.radius_scale().max(1e-3);
         let tolerance = self.casing.gap_tolerance();
-        let inexact = self.residual > tolerance.max(EXACT_CONTACT_SHARE * s.peaks.blade_radial());
+        let inexact = self.residual > tolerance.max(EXACT_CONTACT_SHARE * level);
         // The watch confirms runaways after a step, so none is set yet unless confirmed here.
         if !diverged && inexact && self.runaway.is_none() {
             self.runaway = self.runaway_at_breakdown();
         }
         if diverged || self.runaway.is_some() {
-            let level = self.summary.peaks.blade_radial();
             return Err(SimError::Diverged {
                 time: self.t1,
                 reason: format!(
@@ -725,14 +724,8 @@ impl<'a> Simulation<'a> {
         c.fc.iter_mut().for_each(|x| *x = 0.0);
         for (cd, l) in c.cands.iter().zip(&c.lambda) {
             if *l != 0.0 {
-                let force = cd.fdir * (-l);
-                f.frames.add_force(
-                    &cs.spline,
-                    &cd.param,
-                    &force,
-                    (&mut c.wu, &mut c.wv),
-                    &mut c.fc,
-                )?;
+                let on = (&f.frames, &cs.spline);
+                let force = cd.add_casing_force(*l, on, (&mut c.wu, &mut c.wv), &mut c.fc)?;
                 if lazy && !massless {
                     c.loads.push((cd.param, force));
                 }

@@ -208,22 +208,26 @@ impl<'a> Simulation<'a> {
         impeller: &CyclicRom,
         casing: &CasingModel,
     ) -> Result<Self, SimError> {
-        Self::with_cache(case, impeller, casing, &CasingCache::default())
+        Self::with_cache(case, impeller, casing, None)
     }
 
     /// [`Simulation::new`], with the flexible casing's structure and side taken from `cache`
-    /// (whose casing ROM `casing` must be) when it holds them.
+    /// (whose casing ROM `casing` must be) when it holds them, and kept there when not.
     pub(crate) fn with_cache(
         case: &'a Case,
         impeller: &CyclicRom,
         casing: &CasingModel,
-        cache: &CasingCache,
+        cache: Option<&CasingCache>,
     ) -> Result<Self, SimError> {
         let num = &case.numerics;
         let st_i = Structure::new(impeller, case.omega)?.with_numerics(num);
         let st_c = match casing {
             CasingModel::Flexible(rom) => {
-                Some(cache.structure(num, || Ok(Structure::new(rom, 0.0)?.with_numerics(num)))?)
+                let build = || Ok(Structure::new(rom, 0.0)?.with_numerics(num));
+                Some(match cache {
+                    Some(cache) => cache.structure(num, build)?,
+                    None => Arc::new(build()?),
+                })
             }
             CasingModel::Rigid(_) | CasingModel::ImposedGap(_) => None,
         };
@@ -252,13 +256,12 @@ impl<'a> Simulation<'a> {
                         .map_err(|e| SimError::InvalidCase(format!("imposed-gap casing: {e}")))?,
                 )
             }
-            model @ CasingModel::Flexible(_) => {
-                let side = cache.side(case, h, || CasingSide::new(case, h, model, st_c))?;
-                blades.shift_tips_toward(case, &side)?;
-                Casing::Surface(side)
-            }
             model => {
-                let side = CasingSide::new(case, h, model, st_c)?;
+                let build = || CasingSide::new(case, h, model, st_c);
+                let side = match (model, cache) {
+                    (CasingModel::Flexible(_), Some(cache)) => cache.side(case, h, build)?,
+                    _ => build()?,
+                };
                 blades.shift_tips_toward(case, &side)?;
                 Casing::Surface(side)
             }
