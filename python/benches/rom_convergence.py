@@ -29,6 +29,8 @@ ROOT = Path(__file__).resolve().parents[2]
 COLUMNS = {
     "blade LE (m)": "max_blade_le_radial_m",
     "blade TE (m)": "max_blade_te_radial_m",
+    "blade LE < 15 kHz (m)": "max_blade_le_radial_lowpass_m",
+    "blade TE < 15 kHz (m)": "max_blade_te_radial_lowpass_m",
     "casing (m)": "max_casing_radial_m",
     "coating force (N)": "max_coating_force_n",
 }

@@ -10,6 +10,7 @@
 //! - [`simulate`](mod@simulate): the time loop ([`Simulation`], one method per box of Figs. 4 and 11);
 //!   [`recorder`]: what a sample step hands out and who keeps it; [`probes`]: the run's output;
 //! - [`abradable`]: the abradable coating's elastoplastic elements;
+//! - [`low_pass`]: the blade-tip peaks below a band edge (fourth-order Bessel low-pass);
 
 pub mod abradable;
 pub mod contact_solve;
@@ -18,6 +19,7 @@ mod imposed_casing;
 pub mod kernel;
 #[cfg(test)]
 mod kernel_agreement;
+pub mod low_pass;
 pub mod modal;
 pub mod numerics;
 pub mod probes;

@@ -221,6 +221,13 @@ pub struct Peaks {
     pub blade_le_radial: f64,
     /// Radial displacement (m) of any blade's trailing-edge tip node.
     pub blade_te_radial: f64,
+    /// Radial displacement (m) of any blade's leading-edge tip node low-passed at
+    /// [`BLADE_BAND_HZ`](crate::dynamics::low_pass::BLADE_BAND_HZ): the blade's vibration
+    /// without the impact ringing above it that reduced models converge slowly. `None` when
+    /// the step is longer than `1/(4 BLADE_BAND_HZ)`.
+    pub blade_le_radial_lowpass: Option<f64>,
+    /// The same at the trailing edge (m).
+    pub blade_te_radial_lowpass: Option<f64>,
     /// Radial displacement (m) of the case's casing probe nodes, read every
     /// [`CASING_PEAK_INTERVAL`](crate::dynamics::simulate::CASING_PEAK_INTERVAL) of simulated
     /// time (every step when h is longer).

@@ -97,6 +97,8 @@ impl JobAggregator {
             maxima: Maxima {
                 blade_le_radial_m: peaks.blade_le_radial,
                 blade_te_radial_m: peaks.blade_te_radial,
+                blade_le_radial_lowpass_m: peaks.blade_le_radial_lowpass,
+                blade_te_radial_lowpass_m: peaks.blade_te_radial_lowpass,
                 casing_radial_m: peaks.casing_radial,
                 contact_normal_force_n: peaks.contact_normal_force,
                 coating_force_n: peaks.coating_force,

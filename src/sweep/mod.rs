@@ -137,6 +137,14 @@ pub struct Maxima {
     pub blade_le_radial_m: f64,
     /// Largest |radial displacement| of any blade trailing-edge node (m).
     pub blade_te_radial_m: f64,
+    /// Largest |radial displacement| of any blade leading-edge node low-passed at
+    /// [`BLADE_BAND_HZ`](crate::dynamics::low_pass::BLADE_BAND_HZ) (m); `None` when the step
+    /// cannot resolve that band, or in results written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blade_le_radial_lowpass_m: Option<f64>,
+    /// The same at the trailing edge (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blade_te_radial_lowpass_m: Option<f64>,
     /// Largest |radial displacement| of the casing probe nodes (m).
     pub casing_radial_m: f64,
     /// Largest normal contact force, summed over a blade (N).
@@ -233,6 +241,14 @@ impl JobResult {
         let scalars = [
             ("maxima.blade_le_radial_m", m.blade_le_radial_m),
             ("maxima.blade_te_radial_m", m.blade_te_radial_m),
+            (
+                "maxima.blade_le_radial_lowpass_m",
+                m.blade_le_radial_lowpass_m.unwrap_or(0.0),
+            ),
+            (
+                "maxima.blade_te_radial_lowpass_m",
+                m.blade_te_radial_lowpass_m.unwrap_or(0.0),
+            ),
             ("maxima.casing_radial_m", m.casing_radial_m),
             ("maxima.contact_normal_force_n", m.contact_normal_force_n),
             ("maxima.coating_force_n", m.coating_force_n),

@@ -38,6 +38,8 @@ use crate::sweep::JobResult;
 pub const PEAK_QUANTITIES: &[&str] = &[
     "max_blade_le_radial_m",
     "max_blade_te_radial_m",
+    "max_blade_le_radial_lowpass_m",
+    "max_blade_te_radial_lowpass_m",
     "max_casing_radial_m",
     "max_contact_normal_force_n",
     "max_coating_force_n",
@@ -133,6 +135,8 @@ pub fn quantity_of(column: &str, result: &JobResult) -> Option<f64> {
     match column {
         "max_blade_le_radial_m" => Some(m.blade_le_radial_m),
         "max_blade_te_radial_m" => Some(m.blade_te_radial_m),
+        "max_blade_le_radial_lowpass_m" => m.blade_le_radial_lowpass_m,
+        "max_blade_te_radial_lowpass_m" => m.blade_te_radial_lowpass_m,
         "max_casing_radial_m" => Some(m.casing_radial_m),
         "max_contact_normal_force_n" => Some(m.contact_normal_force_n),
         "max_coating_force_n" => Some(m.coating_force_n),

@@ -103,6 +103,8 @@ impl SyntheticSimulator {
         let maxima = Maxima {
             blade_le_radial_m: a * (1.0 + mu),
             blade_te_radial_m: 0.5 * a * (1.0 + mu),
+            blade_le_radial_lowpass_m: Some(0.9 * a * (1.0 + mu)),
+            blade_te_radial_lowpass_m: Some(0.45 * a * (1.0 + mu)),
             casing_radial_m: 0.8 * a / (1.0 + mu),
             contact_normal_force_n: contact,
             coating_force_n: 0.5 * contact * t_factor,

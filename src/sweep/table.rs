@@ -159,6 +159,16 @@ pub const COLUMNS: &[(&str, &str, &str)] = &[
         "max |radial displacement| of blade trailing edges, over every time step",
     ),
     (
+        "max_blade_le_radial_lowpass_m",
+        "m",
+        "max |radial displacement| of blade leading edges low-passed at 15 kHz (4th-order Bessel), over every time step; null when the step cannot resolve 15 kHz",
+    ),
+    (
+        "max_blade_te_radial_lowpass_m",
+        "m",
+        "the same at blade trailing edges",
+    ),
+    (
         "max_casing_radial_m",
         "m",
         "max |radial displacement| of casing probes, read every 2 µs of simulated time (every step when longer)",
@@ -491,6 +501,8 @@ pub(crate) fn results_batch(rows: &[(usize, JobRecord)]) -> Result<RecordBatch> 
     runaway_columns(&rows, &mut cols);
     cols.push(res(|r| Some(r.maxima.blade_le_radial_m)));
     cols.push(res(|r| Some(r.maxima.blade_te_radial_m)));
+    cols.push(res(|r| r.maxima.blade_le_radial_lowpass_m));
+    cols.push(res(|r| r.maxima.blade_te_radial_lowpass_m));
     cols.push(res(|r| Some(r.maxima.casing_radial_m)));
     cols.push(res(|r| Some(r.maxima.contact_normal_force_n)));
     cols.push(res(|r| Some(r.maxima.coating_force_n)));
@@ -842,6 +854,8 @@ fn result_of_row(b: &RecordBatch, i: usize, c: &RowColumns<'_>) -> Result<crate:
         maxima: crate::sweep::Maxima {
             blade_le_radial_m: m[0],
             blade_te_radial_m: m[1],
+            blade_le_radial_lowpass_m: optional_f64(b, "max_blade_le_radial_lowpass_m", i)?,
+            blade_te_radial_lowpass_m: optional_f64(b, "max_blade_te_radial_lowpass_m", i)?,
             casing_radial_m: m[2],
             contact_normal_force_n: m[3],
             coating_force_n: m[4],
@@ -855,14 +869,19 @@ fn result_of_row(b: &RecordBatch, i: usize, c: &RowColumns<'_>) -> Result<crate:
             .and_then(|a| a.is_valid(i).then(|| a.value(i))),
         critical_speed,
         spectrum,
-        drive_work_j: b
-            .column_by_name("drive_work_j")
-            .map(|_| column::<Float64Array>(b, "drive_work_j"))
-            .transpose()?
-            .and_then(|a| opt_f64(a, i)),
+        drive_work_j: optional_f64(b, "drive_work_j", i)?,
         predicted: predicted_of_row(b, i)?,
         runaway: runaway_of_row(b, i)?,
     })
+}
+
+/// Row `i` of the Float64 column `name`, `None` when null or absent (tables written before
+/// the column existed).
+fn optional_f64(b: &RecordBatch, name: &str, i: usize) -> Result<Option<f64>> {
+    Ok(b.column_by_name(name)
+        .map(|_| column::<Float64Array>(b, name))
+        .transpose()?
+        .and_then(|a| opt_f64(a, i)))
 }
 
 /// Reads the job records `(job index, record)` back from a results table, in table order
@@ -937,6 +956,8 @@ mod tests {
             maxima: Maxima {
                 blade_le_radial_m: 1e-4,
                 blade_te_radial_m: 2e-4,
+                blade_le_radial_lowpass_m: Some(0.9e-4),
+                blade_te_radial_lowpass_m: Some(1.8e-4),
                 casing_radial_m: 3e-4,
                 contact_normal_force_n: 12.5,
                 coating_force_n: 0.5,
@@ -1045,6 +1066,24 @@ mod tests {
             read[0].1.result.as_ref().unwrap().steps_over_gap_tolerance,
             None
         );
+        // A table from before the low-passed blade peaks reads back without them.
+        for name in [
+            "max_blade_le_radial_lowpass_m",
+            "max_blade_te_radial_lowpass_m",
+        ] {
+            old.remove_column(old.schema().index_of(name).unwrap());
+        }
+        let maxima = records_of_batch(&old).unwrap()[0]
+            .1
+            .result
+            .as_ref()
+            .unwrap()
+            .maxima;
+        let written = rows[0].1.result.as_ref().unwrap().maxima;
+        assert!(written.blade_le_radial_lowpass_m.is_some());
+        assert_eq!(maxima.blade_le_radial_lowpass_m, None);
+        assert_eq!(maxima.blade_te_radial_lowpass_m, None);
+        assert_eq!(maxima.blade_te_radial_m, written.blade_te_radial_m);
         std::fs::write(&path, b"not parquet").unwrap();
         let err = format!("{:#}", read_records(&path).unwrap_err());
         assert!(err.contains("results.parquet"), "{err}");

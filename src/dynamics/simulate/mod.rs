@@ -26,6 +26,7 @@ use crate::dynamics::contact_solve::{
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
 use crate::dynamics::kernel::StructureKernel;
+use crate::dynamics::low_pass::{BLADE_BAND_HZ, BesselLowPass, LowPassPeak};
 use crate::dynamics::modal::ModalKernel;
 use crate::dynamics::numerics::{Boundary, KernelChoice, STEPS_PER_PERIOD, STEPS_PER_REVOLUTION};
 use crate::dynamics::probes::{
@@ -222,7 +223,12 @@ pub struct Simulation<'a> {
     runaway: Option<Runaway>,
     /// Vibration energy (J) of both structures at the last sample step (box 6 computes it).
     sample_energy: f64,
-    /// Probe buffers of a sample (per blade, per casing probe, per nodal diameter).
+    /// The blade tips' leading- and trailing-edge radial displacements low-passed at
+    /// [`BLADE_BAND_HZ`](crate::dynamics::low_pass::BLADE_BAND_HZ); `None` when the step is
+    /// too long to resolve that band.
+    blade_band_peaks: Option<[LowPassPeak; 2]>,
+    /// Probe buffers (per blade, per casing probe, per nodal diameter): the blade tips' on
+    /// every step, the others on sample steps.
     le: Vec<f64>,
     te: Vec<f64>,
     casing_radial: Vec<f64>,
@@ -862,8 +868,16 @@ impl<'a> Simulation<'a> {
         let raise = |peak: &mut f64, x: f64| *peak = peak.max(x.abs());
         let b = &self.blades;
         for s in 0..b.n_blades {
-            raise(&mut peaks.blade_le_radial, b.radial_displacement(s, b.le));
-            raise(&mut peaks.blade_te_radial, b.radial_displacement(s, b.te));
+            self.le[s] = b.radial_displacement(s, b.le);
+            self.te[s] = b.radial_displacement(s, b.te);
+            raise(&mut peaks.blade_le_radial, self.le[s]);
+            raise(&mut peaks.blade_te_radial, self.te[s]);
+        }
+        if let Some([le, te]) = &mut self.blade_band_peaks {
+            le.push(self.le.iter().copied());
+            te.push(self.te.iter().copied());
+            peaks.blade_le_radial_lowpass = Some(le.peak());
+            peaks.blade_te_radial_lowpass = Some(te.peak());
         }
         if let Some(f) = self.casing.flexible()
             && self.steps_done.is_multiple_of(f.probe_stride)

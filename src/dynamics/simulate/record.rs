@@ -15,11 +15,7 @@ impl Simulation<'_> {
             self.clock.lap(Stage::Other);
             return Ok(());
         }
-        let b = &self.blades;
-        for s in 0..b.n_blades {
-            self.le[s] = b.radial_displacement(s, b.le);
-            self.te[s] = b.radial_displacement(s, b.te);
-        }
+        // The blade tips' buffers hold this state: `track_peaks` fills them on every step.
         let mut casing_energy = None;
         if let Some(cs) = self.casing.surface_mut()
             && let Some(f) = cs.flexible.as_mut()

@@ -341,6 +341,7 @@ impl<'a> Simulation<'a> {
             watch,
             runaway: None,
             sample_energy: 0.0,
+            blade_band_peaks: blade_band_peaks(h),
             le: vec![0.0; n_blades],
             te: vec![0.0; n_blades],
             casing_radial: vec![0.0; case.casing_probes.len()],
@@ -351,6 +352,16 @@ impl<'a> Simulation<'a> {
             casing_recovery,
         })
     }
+}
+
+/// The low-passed blade-tip peaks' trackers (leading, trailing edge) for the step `h` (s);
+/// `None` when the step is too long for the band: its Nyquist frequency `1/(2h)` below
+/// twice [`BLADE_BAND_HZ`], where the bilinear filter is no longer the analog one.
+fn blade_band_peaks(h: f64) -> Option<[LowPassPeak; 2]> {
+    (4.0 * BLADE_BAND_HZ * h < 1.0).then(|| {
+        let filter = BesselLowPass::new(BLADE_BAND_HZ, h);
+        [LowPassPeak::new(filter), LowPassPeak::new(filter)]
+    })
 }
 
 /// Sets the initial velocities of the case on both kernels (`u_{−1} = −h v_0`).
