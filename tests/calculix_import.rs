@@ -1,20 +1,24 @@
 //! Cyclic sectors imported from CalculiX decks (issue 40, items 2 and 4): the example pair
 //! `tests/data/imported/` holds the built-in impeller and casing sectors as `rubscan model
 //! export calculix` writes them; imported back (`rubscan model import calculix-cyclic`), they
-//! must give the built-in ROMs' frequencies within 1e-6 on every nodal diameter and speed, and
-//! the quickstart job on the imported pair must match the built-in one within 1 % on every
-//! reported number. Bad sector decks are refused before any reduction, naming the file and the
-//! cause, with a non-zero status and no ROM written.
+//! must give the built-in ROMs to the bit (matrices, modal data, recovery rows, contact
+//! nodes), and the quickstart job on the imported pair must give the built-in one's table
+//! within 1e-9 on every value of every column. The bit-for-bit ROM is what makes the second
+//! claim possible: the quickstart's rubbing amplifies round-off about 1e9-fold (its stiffness
+//! scaled by 1 + 1e-12 moves the blade's leading-edge peak by 1.5e-3), so ROMs equal to 1e-11
+//! gave tables 0.36 % apart. Bad sector decks are refused before any reduction, naming the
+//! file and the cause, with a non-zero status and no ROM written.
 
 mod common;
 use common::{Scratch, rubscan, stderr, table_without_timing};
 
-use arrow_array::{Array, Float64Array, ListArray, RecordBatch};
+use arrow_array::Array;
 use rubscan::io::calculix_export::model_deck;
 use rubscan::io::calculix_sector::{CalculixSectorSpec, import_calculix_sector};
 use rubscan::model::build::{CasingSpec, ImpellerSpec, build_casing, build_impeller};
 use rubscan::model::mesh::{CasingGeometry, ImpellerGeometry};
 use rubscan::model::rom::CyclicRom;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 fn data() -> PathBuf {
@@ -67,7 +71,7 @@ fn import(spec_file: &str) -> CyclicRom {
 }
 
 /// Largest relative difference between the two ROMs' frequencies over every nodal
-/// diameter, speed and mode.
+/// diameter, speed and mode (printed: 0 when the ROMs are equal to the bit).
 fn frequency_difference(a: &CyclicRom, b: &CyclicRom) -> f64 {
     assert_eq!(a.modal_data.len(), b.modal_data.len());
     let mut worst = 0.0f64;
@@ -83,6 +87,30 @@ fn frequency_difference(a: &CyclicRom, b: &CyclicRom) -> f64 {
     worst
 }
 
+/// Largest difference between the two ROMs' stored mode shapes, relative to the largest entry.
+fn shape_difference(a: &CyclicRom, b: &CyclicRom) -> f64 {
+    let (mut worst, mut scale) = (0.0f64, 0.0f64);
+    for (da, db) in a.modal_data.iter().zip(&b.modal_data) {
+        for (sa, sb) in [
+            (&da.shapes_re, &db.shapes_re),
+            (&da.shapes_im, &db.shapes_im),
+        ] {
+            let (x, y): (Vec<f64>, Vec<f64>) = (
+                sa.iter().flatten().flatten().copied().collect(),
+                sb.iter().flatten().flatten().copied().collect(),
+            );
+            assert_eq!(x.len(), y.len(), "ND {}: shapes", da.nodal_diameter);
+            for (p, q) in x.iter().zip(&y) {
+                worst = worst.max((p - q).abs());
+                scale = scale.max(q.abs());
+            }
+        }
+    }
+    worst / scale
+}
+
+/// The example pair imported back is the built-in pair: every matrix, recovery row, contact
+/// node and frequency to the bit, the stored mode shapes to round-off.
 #[test]
 fn imported_sectors_reduce_to_the_built_in_roms() {
     let pairs = [
@@ -101,46 +129,111 @@ fn imported_sectors_reduce_to_the_built_in_roms() {
             "{}: largest relative frequency difference {worst:.2e}",
             imported.name
         );
-        assert!(worst < 1e-6, "{}: {worst:e}", imported.name);
-        assert_eq!(imported.n_sectors, built_in.n_sectors);
-        // The deck keeps 15 significant digits of each coordinate.
-        for (p, q) in imported.contact_nodes.iter().zip(&built_in.contact_nodes) {
-            let d = (0..3)
-                .map(|k| (p.position[k] - q.position[k]).abs())
-                .fold(0.0, f64::max);
-            assert!(d < 1e-15, "contact node moved by {d:e} m");
+        // The same ROM but for its name, its provenance and the recovery nodes' ids (deck ids,
+        // 1-based, against the built-in mesh's 0-based indices): the deck holds every coordinate
+        // exactly (`calculix_export::real_field`), so the same mesh goes through the same reduction
+        // (the deck clamps a clamped slave node through its master partner; the reduction clamps
+        // both nodes of a cyclic pair either way). The mode shapes stored for the interaction
+        // criterion come from an eigensolver whose vectors may differ by round-off (7.5e-14
+        // measured once between two processes, 0 here); they are held to 1e-9 of their largest
+        // entry.
+        assert!(
+            worst == 0.0,
+            "{}: frequencies differ by {worst:e}",
+            imported.name
+        );
+        let mut same = built_in.clone();
+        same.name.clone_from(&imported.name);
+        same.provenance = imported.provenance.clone();
+        for (n, m) in same.recovery.nodes.iter_mut().zip(&imported.recovery.nodes) {
+            assert_eq!(m.id, n.id + 1, "recovery node {:?}", n.name);
+            n.id = m.id;
         }
-        assert_eq!(imported.contact_nodes.len(), built_in.contact_nodes.len());
-        let names = |r: &CyclicRom| {
-            r.recovery
-                .nodes
-                .iter()
-                .map(|n| n.name.clone())
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(names(imported), names(built_in));
+        let shape_gap = shape_difference(imported, &same);
+        eprintln!("{}: mode shapes within {shape_gap:.2e}", imported.name);
+        assert!(
+            shape_gap <= 1e-9,
+            "{}: mode shapes {shape_gap:e}",
+            imported.name
+        );
+        for (m, n) in same.modal_data.iter_mut().zip(&imported.modal_data) {
+            m.shapes_re.clone_from(&n.shapes_re);
+            m.shapes_im.clone_from(&n.shapes_im);
+        }
+        assert!(
+            *imported == same,
+            "{}: the imported ROM differs from the built-in one",
+            imported.name
+        );
     }
     // The impeller's modal data span the built-in speed grid: K(Ω) is imported too.
     assert!(pairs[0].0.modal_data[0].omega.len() > 1);
 }
 
-/// Every value of column `i` of both tables, flattened (lists element by element).
-fn values(batches: &[RecordBatch], i: usize) -> Option<Vec<f64>> {
-    let mut out = Vec::new();
-    for b in batches {
-        let col = b.column(i);
-        if let Some(f) = col.as_any().downcast_ref::<Float64Array>() {
-            out.extend(f.iter().map(|v| v.unwrap_or(f64::NAN)));
-        } else if let Some(list) = col.as_any().downcast_ref::<ListArray>() {
-            let inner = list.values().as_any().downcast_ref::<Float64Array>()?;
-            out.extend(inner.iter().map(|v| v.unwrap_or(f64::NAN)));
-        } else {
-            return None;
-        }
-    }
-    Some(out)
+/// One value of a results table: a number (floats, integers and booleans as f64), a text, a
+/// list's length or a null.
+#[derive(Clone, Debug, PartialEq)]
+enum Cell {
+    Num(f64),
+    Text(String),
+    Len(usize),
+    Null,
 }
 
+/// The values of column `col` named `name`, in row order, each with its leaf's name: a list
+/// gives its length, then its items; a struct gives its fields as `name.field`.
+fn cells(name: &str, col: &dyn Array, out: &mut Vec<(String, Cell)>) {
+    use arrow_array::{
+        BooleanArray, Float64Array, ListArray, StringArray, StructArray, UInt32Array, UInt64Array,
+    };
+    let any = col.as_any();
+    for i in 0..col.len() {
+        let cell = if col.is_null(i) {
+            Cell::Null
+        } else if let Some(a) = any.downcast_ref::<Float64Array>() {
+            Cell::Num(a.value(i))
+        } else if let Some(a) = any.downcast_ref::<UInt32Array>() {
+            Cell::Num(f64::from(a.value(i)))
+        } else if let Some(a) = any.downcast_ref::<UInt64Array>() {
+            Cell::Num(a.value(i) as f64)
+        } else if let Some(a) = any.downcast_ref::<BooleanArray>() {
+            Cell::Num(f64::from(u8::from(a.value(i))))
+        } else if let Some(a) = any.downcast_ref::<StringArray>() {
+            Cell::Text(a.value(i).to_string())
+        } else if let Some(a) = any.downcast_ref::<ListArray>() {
+            let items = a.value(i);
+            out.push((format!("{name}[]"), Cell::Len(items.len())));
+            cells(name, items.as_ref(), out);
+            continue;
+        } else if let Some(a) = any.downcast_ref::<StructArray>() {
+            for (field, c) in a.fields().iter().zip(a.columns()) {
+                cells(&format!("{name}.{}", field.name()), &c.slice(i, 1), out);
+            }
+            continue;
+        } else {
+            panic!("{name}: column type {:?} not compared", col.data_type());
+        };
+        out.push((name.to_string(), cell));
+    }
+}
+
+/// Columns that name a job rather than report on it: the job id hashes the job's context,
+/// which names the models by source (built-in spec or ROM file name), so it differs between
+/// the two runs by construction.
+const IDENTITY_COLUMNS: [&str; 1] = ["job_id"];
+
+/// Largest relative difference accepted between the two quickstart tables. The imported ROMs
+/// equal the built-in ones to the bit (test above), so the runs are the same computation and
+/// agree exactly; 1e-9 is the issue's bound, well above the round-off of one step and far
+/// below the 1.5e-3 that a 1e-12 change of the impeller's stiffness makes.
+const TABLE_TOLERANCE: f64 = 1e-9;
+
+/// The quickstart (`sweeps/imported_quickstart.json`) on the imported pair, run as the README
+/// runs it, gives the built-in quickstart's table within [`TABLE_TOLERANCE`] on every value
+/// of every column: floats relative to the largest magnitude of their column (or list or
+/// struct field: a spectrum's small bins are judged against its peak), integers, booleans,
+/// list lengths and texts exactly; left out are the wall time (timing) and the job id (it
+/// names the models' source).
 #[test]
 fn the_quickstart_on_the_imported_pair_matches_the_built_in_one() {
     let work = scratch("quickstart");
@@ -180,33 +273,65 @@ fn the_quickstart_on_the_imported_pair_matches_the_built_in_one() {
         table_without_timing(&dir.join("imported")),
         table_without_timing(&dir.join("built_in")),
     );
-    let schema = a[0].schema();
-    assert_eq!(schema.fields().len(), b[0].schema().fields().len());
+    let schema = b[0].schema();
+    assert_eq!(a[0].schema(), schema, "the two tables' columns");
     let mut compared = 0;
+    let mut worst: (f64, String) = (0.0, String::new());
     for (i, field) in schema.fields().iter().enumerate() {
-        let (Some(x), Some(y)) = (values(&a, i), values(&b, i)) else {
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for batch in &a {
+            cells(field.name(), batch.column(i).as_ref(), &mut x);
+        }
+        for batch in &b {
+            cells(field.name(), batch.column(i).as_ref(), &mut y);
+        }
+        assert_eq!(x.len(), y.len(), "column {}: values", field.name());
+        if IDENTITY_COLUMNS.contains(&field.name().as_str()) {
             continue;
-        };
-        assert_eq!(x.len(), y.len(), "column {}", field.name());
-        // Relative to the column's largest magnitude: a spectrum's or a profile's small
-        // entries are judged against its peak.
-        let scale = y
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        for (p, q) in x.iter().zip(&y) {
-            assert_eq!(p.is_finite(), q.is_finite(), "column {}", field.name());
-            if p.is_finite() && field.name() != "residual_penetration_m" {
-                assert!(
-                    (p - q).abs() <= 1e-2 * scale,
-                    "column {}: imported {p:e}, built-in {q:e}",
-                    field.name()
-                );
+        }
+        // Scale of each leaf (column, list items, struct field): its largest finite magnitude.
+        let mut scale: BTreeMap<&str, f64> = BTreeMap::new();
+        for (leaf, c) in &y {
+            if let Cell::Num(v) = c
+                && v.is_finite()
+            {
+                let s = scale.entry(leaf.as_str()).or_insert(0.0);
+                *s = s.max(v.abs());
+            }
+        }
+        for ((leaf, p), (_, q)) in x.iter().zip(&y) {
+            match (p, q) {
+                (Cell::Num(p), Cell::Num(q)) if p.is_finite() && q.is_finite() => {
+                    let d = if p == q {
+                        0.0
+                    } else {
+                        (p - q).abs() / scale[leaf.as_str()]
+                    };
+                    if d > worst.0 {
+                        worst = (d, leaf.clone());
+                    }
+                    assert!(
+                        d <= TABLE_TOLERANCE,
+                        "{leaf}: imported {p:e}, built-in {q:e} ({d:.2e} of the column's \
+                         largest value {:e})",
+                        scale[leaf.as_str()]
+                    );
+                }
+                (Cell::Num(p), Cell::Num(q)) => assert!(
+                    p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan()),
+                    "{leaf}: imported {p:e}, built-in {q:e}"
+                ),
+                _ => assert_eq!(p, q, "{leaf}"),
             }
         }
         compared += 1;
     }
-    assert!(compared > 10, "only {compared} numeric columns compared");
+    eprintln!(
+        "{compared} columns compared; largest relative difference {:.2e} ({})",
+        worst.0, worst.1
+    );
+    assert_eq!(compared + IDENTITY_COLUMNS.len(), schema.fields().len());
+    assert!(compared > 20, "only {compared} columns compared");
 }
 
 /// A bad sector deck or spec given to the CLI: non-zero status, the message names `names`

@@ -5,11 +5,15 @@
 //!    prints in `blade.dat` (step 1 of the deck): an independent reference;
 //! 2. run the sweep `sweeps/rotor37_two_lobe.json` on that ROM and check, in its Parquet table,
 //!    that the largest responses lie where the piecewise-linear contact bounds computed from the
-//!    ROM alone put the engine-order resonances of the first mode (see [`ContactBands`]).
+//!    ROM alone put the engine-order resonances of the first mode: between the free crossing
+//!    and the crossing of the bilinear frequency of the free and held blade
+//!    ([`ContactBands::bilinear_band`]).
 //!
-//! CalculiX runs once per test binary (a [`OnceLock`] fixture shared by both tests).
-//! Needs `ccx` (Debian `calculix-ccx`) on the PATH; without it the tests fail when the
-//! environment variable `CI` is set and print a skip note otherwise. The model folder is
+//! The import runs once per test binary (a [`OnceLock`] fixture shared by the tests), and
+//! CalculiX's run is kept for the next run of the binary ([`ccx_dir`]: a new deck, mesh or
+//! `ccx` reruns it).
+//! Needs `ccx` (Debian `calculix-ccx`) on the PATH; without it the tests fail under the
+//! README's test command (`RUBSCAN_REQUIRE_TOOLS`) or in CI and print a skip note otherwise. The model folder is
 //! looked up in `$RUBSCAN_ROTOR37_DIR`, then `../shared/rotor37` and `../../shared/rotor37`
 //! relative to the package (the second one serves git worktrees under `wt/<name>`).
 
@@ -91,7 +95,8 @@ struct Imported {
     dof_map_matches: bool,
     /// Positions (mm, as in the deck) of the [`TIP`] nodes in the mesh.
     tip_mm: Vec<[f64; 3]>,
-    ccx_time: Duration,
+    /// How long ccx took (`None`: a finished run was reused).
+    ccx_time: Option<Duration>,
     import_time: Duration,
     /// Static load case on the tip nodes (N, node-major x, y, z) and the full FE solution
     /// `K u = f` (m) at the interior node [`RECOVERED`], by a sparse Cholesky of the whole K.
@@ -142,13 +147,90 @@ fn full_static_solution(dir: &Path) -> Result<[f64; 3], String> {
     Ok(out)
 }
 
-/// Why the fixture has no model: a missing prerequisite (skip unless `CI`) or a failure.
+/// Why the fixture has no model: a missing prerequisite (a skip unless required) or a failure.
 enum Unavailable {
     Skip(String),
     Failed(String),
 }
 
-/// Runs CalculiX on a scratch copy of the model and imports its matrices.
+/// FNV-1a 64-bit hash of `bytes`, continuing from `h` (start: 0xcbf29ce484222325).
+fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
+    for b in bytes {
+        h = (h ^ u64::from(*b)).wrapping_mul(0x100000001b3);
+    }
+    h
+}
+
+/// Where `ccx blade` runs and leaves its output for the next run of this test binary:
+/// `$RUBSCAN_ROTOR37_CCX_DIR`, else `rotor37-ccx` in Cargo's scratch folder for integration
+/// tests (`target/tmp`). CalculiX is the independent reference here, not the code under test:
+/// its output depends on its input deck and its own binary only, so a finished run of the same
+/// deck, mesh and `ccx` is reused (a run takes about a minute; a new deck, mesh or `ccx`
+/// reruns it).
+fn ccx_dir() -> PathBuf {
+    std::env::var_os("RUBSCAN_ROTOR37_CCX_DIR").map_or_else(
+        || Path::new(env!("CARGO_TARGET_TMPDIR")).join("rotor37-ccx"),
+        PathBuf::from,
+    )
+}
+
+/// The key of a finished `ccx blade` run: a hash of the deck, the mesh and the `ccx` binary.
+fn ccx_key(src: &Path, ccx: &Path) -> std::io::Result<String> {
+    let mut h = 0xcbf29ce484222325;
+    for f in [
+        src.join("blade.inp"),
+        src.join("blade.msh"),
+        ccx.to_path_buf(),
+    ] {
+        h = fnv1a(h, &std::fs::read(f)?);
+    }
+    Ok(format!("{h:016x}"))
+}
+
+/// Runs `ccx blade` on a copy of the model in [`ccx_dir`], unless that folder holds a finished
+/// run of the same inputs ([`ccx_key`]); returns the folder and the time ccx took (`None`:
+/// reused).
+fn run_ccx(src: &Path, ccx: &Path) -> Result<(PathBuf, Option<Duration>), Unavailable> {
+    let fail = |what: &str, e: &dyn std::fmt::Display| Unavailable::Failed(format!("{what}: {e}"));
+    let work = ccx_dir();
+    let key = ccx_key(src, ccx).map_err(|e| fail("hashing the ccx inputs", &e))?;
+    let stamp = work.join("finished.key");
+    let outputs = ["blade.sti", "blade.mas", "blade.dof", "blade.dat"];
+    if std::fs::read_to_string(&stamp).is_ok_and(|k| k == key)
+        && outputs.iter().all(|f| work.join(f).is_file())
+    {
+        return Ok((work, None));
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    std::fs::create_dir_all(&work).map_err(|e| fail("ccx folder", &e))?;
+    for f in ["blade.inp", "blade.msh"] {
+        std::fs::copy(src.join(f), work.join(f)).map_err(|e| fail(f, &e))?;
+    }
+    let t = Instant::now();
+    let log = std::fs::File::create(work.join("ccx.log")).map_err(|e| fail("ccx.log", &e))?;
+    let log2 = log.try_clone().map_err(|e| fail("ccx.log", &e))?;
+    let status = Command::new(ccx)
+        .arg("blade")
+        .current_dir(&work)
+        .env("OMP_NUM_THREADS", "2")
+        .stdout(log2)
+        .stderr(log)
+        .status()
+        .map_err(|e| fail("running ccx", &e))?;
+    let ccx_time = t.elapsed();
+    let log = std::fs::read_to_string(work.join("ccx.log")).unwrap_or_default();
+    if !status.success() || log.contains("*ERROR") {
+        return Err(Unavailable::Failed(format!(
+            "ccx failed ({status}):\n{log}"
+        )));
+    }
+    // The mode shapes (23 MB) are not read.
+    let _ = std::fs::remove_file(work.join("blade.frd"));
+    std::fs::write(&stamp, key).map_err(|e| fail("finished.key", &e))?;
+    Ok((work, Some(ccx_time)))
+}
+
+/// Runs CalculiX (or reuses its run, [`run_ccx`]) and imports its matrices.
 fn setup() -> Result<Imported, Unavailable> {
     let src = model_dir().ok_or(Unavailable::Skip(
         "model folder shared/rotor37 not found".into(),
@@ -157,31 +239,7 @@ fn setup() -> Result<Imported, Unavailable> {
         "ccx (Debian calculix-ccx) is not on the PATH".into(),
     ))?;
     let fail = |what: &str, e: &dyn std::fmt::Display| Unavailable::Failed(format!("{what}: {e}"));
-    let work = std::env::temp_dir().join(format!("rubscan-rotor37-{}", std::process::id()));
-    std::fs::create_dir_all(&work).map_err(|e| fail("scratch folder", &e))?;
-    let _guard = Scratch(work.clone());
-    for f in ["blade.inp", "blade.msh"] {
-        std::fs::copy(src.join(f), work.join(f)).map_err(|e| fail(f, &e))?;
-    }
-
-    let t = Instant::now();
-    let log = std::fs::File::create(work.join("ccx.log")).map_err(|e| fail("ccx.log", &e))?;
-    let log2 = log.try_clone().map_err(|e| fail("ccx.log", &e))?;
-    let status = Command::new(&ccx)
-        .arg("blade")
-        .current_dir(&work)
-        .env("OMP_NUM_THREADS", "1")
-        .stdout(log2)
-        .stderr(log)
-        .status()
-        .map_err(|e| fail("running ccx", &e))?;
-    let ccx_time = t.elapsed();
-    if !status.success() {
-        let log = std::fs::read_to_string(work.join("ccx.log")).unwrap_or_default();
-        return Err(Unavailable::Failed(format!(
-            "ccx failed ({status}):\n{log}"
-        )));
-    }
+    let (work, ccx_time) = run_ccx(&src, &ccx)?;
     let produced = std::fs::read(work.join("blade.dof")).map_err(|e| fail("blade.dof", &e))?;
     let shipped =
         std::fs::read(src.join("blade.dof")).map_err(|e| fail("shipped blade.dof", &e))?;
@@ -275,7 +333,7 @@ fn rotor37_reduced_frequencies_match_calculix() {
     let f = &rom.modal_data[0].frequencies[0];
     let err = relative_errors(&f[..10], &reference[..10]);
     eprintln!(
-        "ccx {:.1?}, import + reduction {:.1?}",
+        "ccx {:.1?} (None: reused), import + reduction {:.1?}",
         imp.ccx_time, imp.import_time
     );
     eprintln!("mode  CalculiX (Hz)  ROM (Hz)  rel. error");
@@ -411,6 +469,19 @@ impl ContactBands {
     fn band(&self, p: usize, k: usize) -> (f64, f64) {
         (self.free[p] / k as f64, self.held[p] / k as f64)
     }
+
+    /// Speed band (rad/s) where engine order `k` meets mode `p` of the blade in intermittent
+    /// contact: from the free crossing ω_f / k to the bilinear one ω_b / k, with
+    /// ω_b = 2 ω_f ω_h / (ω_f + ω_h) the frequency of a bilinear oscillator (free branch ω_f,
+    /// held branch ω_h) that spends half of each cycle on each branch, its contact closing at
+    /// its equilibrium: half a free period plus half a held one. The lobed casing closes the
+    /// contact on part of each cycle only (the tips touch near the two lobes), so the blade
+    /// spends at most about half its cycle held and its resonance lies in this band, a third
+    /// of the free-to-held band's width (ω_b/ω_f = 1.34 against ω_h/ω_f = 2.04 for mode 1).
+    fn bilinear_band(&self, p: usize, k: usize) -> (f64, f64) {
+        let (f, h) = (self.free[p], self.held[p]);
+        (f / k as f64, 2.0 * f * h / (f + h) / k as f64)
+    }
 }
 
 /// One row of the sweep's results table.
@@ -538,7 +609,12 @@ fn predicted_bands(rom: &CyclicRom) -> ContactBands {
                 format!("mode {}: [{lo:.0}, {hi:.0}]", p + 1)
             })
             .collect();
-        eprintln!("EO {k} bands (rad/s): {}", line.join("  "));
+        eprintln!(
+            "EO {k} bands (rad/s): {}; mode 1 free to bilinear: [{:.0}, {:.0}]",
+            line.join("  "),
+            bands.bilinear_band(0, k).0,
+            bands.bilinear_band(0, k).1
+        );
     }
     // The free pencil reproduces the stored modal data (same matrices, second route).
     let stored = &rom.modal_data[0].frequencies[0];
@@ -552,6 +628,13 @@ fn predicted_bands(rom: &CyclicRom) -> ContactBands {
 /// The engine orders of the first mode the two-lobe scan is about.
 const ORDERS: [usize; 2] = [2, 4];
 
+/// The two-lobe scan (`sweeps/rotor37_two_lobe.json`, 21 speeds 50 rad/s apart): the EO-2
+/// and EO-4 resonances of the first mode, and the scan's largest response, lie between the
+/// free crossing and the bilinear one ([`ContactBands::bilinear_band`]) within half a grid
+/// step (the scan cannot place a peak more finely). That band is a third as wide as the
+/// free-to-held one the test used to check (peaks measured at 550 and 1300 rad/s against
+/// bands [490, 658] and [981, 1317]; the held crossings are 1003 and 2006), so a wrong engine
+/// order, lobe count or contact normal moves a peak out of it.
 #[test]
 fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
     let Some(imp) = imported() else { return };
@@ -631,16 +714,16 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
                 p + 1
             );
         }
-        let band = bands.band(0, k);
+        let band = bands.bilinear_band(0, k);
         let i = argmax(&rows, &idx, |r| r.order_amplitude(k));
         let tol = half_step(&rows, i);
         eprintln!(
-            "EO {k}: bracket [{lo_s}, {hi_s}] rad/s, largest EO-{k} line at {} rad/s, band [{:.0}, {:.0}] ± {tol}",
+            "EO {k}: bracket [{lo_s}, {hi_s}] rad/s, largest EO-{k} line at {} rad/s, free-to-bilinear band [{:.0}, {:.0}] ± {tol}",
             rows[i].speed, band.0, band.1
         );
         assert!(
             in_band(rows[i].speed, band, tol),
-            "EO {k}: largest EO-{k} response at {} rad/s, outside the contact band [{:.1}, {:.1}] ± {tol} rad/s",
+            "EO {k}: largest EO-{k} response at {} rad/s, outside the free-to-bilinear band [{:.1}, {:.1}] ± {tol} rad/s",
             rows[i].speed,
             band.0,
             band.1
@@ -653,7 +736,7 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
     let tol = half_step(&rows, i);
     let hit: Vec<usize> = ORDERS
         .into_iter()
-        .filter(|&k| in_band(rows[i].speed, bands.band(0, k), tol))
+        .filter(|&k| in_band(rows[i].speed, bands.bilinear_band(0, k), tol))
         .collect();
     eprintln!(
         "largest TE radial displacement {:.3} mm at {} rad/s: in the band of EO {hit:?}",
@@ -662,7 +745,7 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
     );
     assert!(
         !hit.is_empty(),
-        "largest response at {} rad/s lies in no band of EO {ORDERS:?}",
+        "largest response at {} rad/s lies in no free-to-bilinear band of EO {ORDERS:?}",
         rows[i].speed
     );
 }
@@ -671,69 +754,98 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
 /// μ = 0.15, 50 revolutions from rest against two Gaussian gap lobes, the PLAUSIBLE
 /// configuration of the NLstep example, the blade turning clockwise as the benchmark's friction
 /// turns it; and its counter-clockwise twin `rotor37_benchmark_ccw.json`), run by
-/// `rubscan simulate` on the freshly imported ROM. Its figures are printed for comparison with
-/// the external reference runs; the test checks what the physics fixes: the contact closes on
-/// part of the steps only, and is solved exactly (residual penetration ≤ 1e-8 of the vibration
-/// level on every step); counter-clockwise, the gap of tip node 188 follows the casing's two
-/// lobes (engine order 2; clockwise the blade's own engine-order-4 response dominates it).
+/// `rubscan simulate` on the freshly imported ROM with the massless boundary at 1000 steps per
+/// revolution (NLstep's resolution; 50,000 steps where the paper's formulation at 5e-7 s takes
+/// 467,000). Its figures are printed for comparison with the external reference runs; the test
+/// checks what the physics fixes ([`check_benchmark_physics`]): the contact closes on part of
+/// the steps only and is solved exactly; counter-clockwise, the gap of tip node 188 follows
+/// the casing's two lobes (engine order 2); clockwise, the massless boundary is converged in
+/// its step (1000 against 2000 steps per revolution, within 2 %). The paper's formulation of
+/// the same runs, and its 5 % agreement with the massless boundary counter-clockwise, is the
+/// study [`rotor37_benchmark_in_the_papers_formulation`] (`cargo test --release --test
+/// rotor37 -- --ignored`); `.ci/run` runs it as the README does, and
+/// [`rotor37_benchmark_does_not_depend_on_the_thread_count`] checks the paper's formulation's
+/// contact on 6 revolutions.
 #[test]
 fn rotor37_benchmark_runs_and_reports_its_figures() {
     let Some(imp) = imported() else { return };
     let (guard, rom_path) = saved_rom(imp, "bench");
     let work = guard.0.clone();
+    let h = 2.0 * std::f64::consts::PI / (1344.0 * 1000.0);
     for sweep in ["rotor37_benchmark", "rotor37_benchmark_ccw"] {
-        benchmark_in_both_formulations(&rom_path, &work.join(sweep), sweep);
+        let work = work.join(sweep);
+        let massless = run_benchmark(&rom_path, &work.join("massless"), Some(h), sweep);
+        check_benchmark_physics(&massless, sweep);
+        if sweep == "rotor37_benchmark" {
+            // Clockwise the two formulations differ by 7 % on node 1353's peak-to-peak, and
+            // the mass formulation moves by as much when its step is halved (issue 38, open):
+            // what holds is the massless boundary converged in its step.
+            let finer = run_benchmark(&rom_path, &work.join("massless2"), Some(0.5 * h), sweep);
+            assert!(
+                benchmarks_agree(&massless, &finer, 0.02),
+                "{sweep}: massless, h against h/2"
+            );
+        }
     }
 }
 
-/// Runs `sweeps/<sweep>.json` in the paper's formulation as the README runs it, then with the
-/// massless boundary at 1000 steps per revolution (NLstep's resolution), and checks them
-/// against each other (see the test above).
-fn benchmark_in_both_formulations(rom_path: &Path, work: &Path, sweep: &str) {
-    let mass = run_benchmark(rom_path, &work.join("mass"), None, sweep);
+/// The benchmark in the paper's formulation (the README's runs, 467,000 steps each) beside the
+/// massless boundary: the same physics checks, and counter-clockwise the massless boundary
+/// within 5 % of it. A study: `cargo test --release --test rotor37 -- --ignored`.
+#[test]
+#[ignore = "study: the paper's formulation over 50 revolutions, both senses (minutes)"]
+fn rotor37_benchmark_in_the_papers_formulation() {
+    let Some(imp) = imported() else { return };
+    let (guard, rom_path) = saved_rom(imp, "bench_mass");
+    let work = guard.0.clone();
     let h = 2.0 * std::f64::consts::PI / (1344.0 * 1000.0);
-    let massless = run_benchmark(rom_path, &work.join("massless"), Some(h), sweep);
-    for f in [&mass, &massless] {
-        assert!(
-            f.closed > 0.0 && f.closed < 1.0,
-            "{sweep}: closed-contact fraction {}",
-            f.closed
-        );
-        assert!(
-            sweep != "rotor37_benchmark_ccw" || (f.gap_order - 2.0).abs() < 0.05,
-            "{sweep}: gap of node 188 at engine order {}",
-            f.gap_order
-        );
-        assert!(f.level > 0.0);
-        assert!(
-            f.residual <= 1e-8 * f.level,
-            "residual penetration {:e} m > 1e-8 × {:e} m",
-            f.residual,
-            f.level
-        );
-        assert_eq!(f.over_tolerance, 0, "steps above the gap tolerance");
+    for sweep in ["rotor37_benchmark", "rotor37_benchmark_ccw"] {
+        let work = work.join(sweep);
+        let mass = run_benchmark(&rom_path, &work.join("mass"), None, sweep);
+        check_benchmark_physics(&mass, sweep);
+        if sweep == "rotor37_benchmark_ccw" {
+            let massless = run_benchmark(&rom_path, &work.join("massless"), Some(h), sweep);
+            assert!(
+                benchmarks_agree(&massless, &mass, 0.05),
+                "{sweep}: massless against mass"
+            );
+        }
     }
+}
+
+/// What the physics fixes in a benchmark run: the contact closes on part of the steps only,
+/// is solved exactly (residual penetration ≤ 1e-8 of the vibration level on every step, no
+/// step above the gap tolerance), and counter-clockwise the gap of tip node 188 follows the
+/// casing's two lobes (engine order 2; clockwise the blade's own engine-order-4 response
+/// dominates it).
+fn check_benchmark_physics(f: &BenchmarkFigures, sweep: &str) {
+    assert!(
+        f.closed > 0.0 && f.closed < 1.0,
+        "{sweep}: closed-contact fraction {}",
+        f.closed
+    );
+    assert!(
+        sweep != "rotor37_benchmark_ccw" || (f.gap_order - 2.0).abs() < 0.05,
+        "{sweep}: gap of node 188 at engine order {}",
+        f.gap_order
+    );
+    assert!(f.level > 0.0);
+    assert!(
+        f.residual <= 1e-8 * f.level,
+        "residual penetration {:e} m > 1e-8 × {:e} m",
+        f.residual,
+        f.level
+    );
+    assert_eq!(f.over_tolerance, 0, "steps above the gap tolerance");
+}
+
+/// Whether two runs' node-1353 peak-to-peak and level agree within `tol` (relative) at the
+/// same dominant engine order.
+fn benchmarks_agree(a: &BenchmarkFigures, b: &BenchmarkFigures, tol: f64) -> bool {
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
-    let agree = |a: &BenchmarkFigures, b: &BenchmarkFigures, tol: f64| {
-        rel(a.peak_to_peak, b.peak_to_peak) <= tol
-            && rel(a.level, b.level) <= tol
-            && (a.y_order - b.y_order).abs() < 0.05
-    };
-    if sweep == "rotor37_benchmark_ccw" {
-        assert!(
-            agree(&massless, &mass, 0.05),
-            "{sweep}: massless against mass"
-        );
-    } else {
-        // Clockwise the two formulations differ by 7 % on node 1353's peak-to-peak, and the
-        // mass formulation moves by as much when its step is halved (issue 38, open): what
-        // holds is the massless boundary converged in its step.
-        let finer = run_benchmark(rom_path, &work.join("massless2"), Some(0.5 * h), sweep);
-        assert!(
-            agree(&massless, &finer, 0.02),
-            "{sweep}: massless, h against h/2"
-        );
-    }
+    rel(a.peak_to_peak, b.peak_to_peak) <= tol
+        && rel(a.level, b.level) <= tol
+        && (a.y_order - b.y_order).abs() < 0.05
 }
 
 /// `rubscan simulate` gives the benchmark's figures bit for bit whatever faer's parallelism
@@ -761,10 +873,33 @@ fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
                 .unwrap();
-        summary["probes"].clone()
+        summary
     };
     let parallel = figures(faer::Par::rayon(2), "parallel");
-    assert_eq!(parallel, figures(faer::Par::Seq, "sequential"));
+    let sequential = figures(faer::Par::Seq, "sequential");
+    assert_eq!(parallel["probes"], sequential["probes"]);
+    // The paper's formulation solves the contact exactly here too (the 50-revolution runs are
+    // the study `rotor37_benchmark_in_the_papers_formulation`): closed on part of the steps,
+    // residual penetration ≤ 1e-8 of node 1353's level, no step above the gap tolerance.
+    let y = parallel["probes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["column"] == "node1353_y_m")
+        .unwrap()
+        .clone();
+    let level = y["max"].as_f64().unwrap().max(-y["min"].as_f64().unwrap());
+    let closed = parallel["closed_contact_fraction"].as_f64().unwrap();
+    let residual = parallel["max_residual_penetration_m"].as_f64().unwrap();
+    assert!(
+        closed > 0.0 && closed < 1.0,
+        "closed-contact fraction {closed}"
+    );
+    assert!(
+        level > 0.0 && residual <= 1e-8 * level,
+        "residual {residual:e} m"
+    );
+    assert_eq!(parallel["steps_over_gap_tolerance"].as_u64(), Some(0));
 }
 
 /// A scratch directory (removed on drop) holding the imported ROM as `blade_benchmark.rom`.

@@ -175,14 +175,26 @@ pub fn fixed_nodes(mesh: &SectorMesh) -> Vec<usize> {
 /// ("*ERROR reading *NODE").
 pub const MAX_FIELD: usize = 20;
 
-/// `x` in at most [`MAX_FIELD`] characters: the shortest round-trip text if it fits, else the
-/// most significant digits that fit (15 for a negative coordinate in metres such as
-/// `-7.78460848174052e-2`, relative rounding below 1e-14; 13 for a negative number with a
-/// three-digit exponent).
+/// `x` in at most [`MAX_FIELD`] characters, exactly when it can be: the shortest round-trip
+/// text, in exponent form (`3.5e-2`) or, when that is too long, in plain decimals with the
+/// zero before the point dropped (`-.030000000000000002`, which CalculiX's `f20.0` and Rust
+/// both read); only when neither fits, the most significant digits that fit (15 for a
+/// negative 17-digit number below 0.001, relative rounding below 1e-14; 13 for a negative
+/// number with a three-digit exponent). Every coordinate of the built-in sectors has an exact
+/// form, so an exported sector imports back to the same bits (`tests/calculix_import.rs`).
 pub fn real_field(x: f64) -> String {
     let shortest = format!("{x:e}");
     if shortest.len() <= MAX_FIELD {
         return shortest;
+    }
+    let plain = format!("{x}");
+    let plain = match (plain.strip_prefix("0."), plain.strip_prefix("-0.")) {
+        (Some(rest), _) => format!(".{rest}"),
+        (_, Some(rest)) => format!("-.{rest}"),
+        _ => plain,
+    };
+    if plain.len() <= MAX_FIELD {
+        return plain;
     }
     (0..16)
         .rev()
@@ -455,13 +467,16 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
-    /// Every real field fits CalculiX's 20 characters and reads back within 1e-14 (1e-12 with
-    /// a three-digit exponent).
+    /// Every real field fits CalculiX's 20 characters and reads back exactly when an exact
+    /// form fits (plain decimals for 17 digits between 0.01 and 1), else within 1e-14 (1e-12
+    /// with a three-digit exponent).
     #[test]
     fn real_fields_fit_calculix_and_round_trip() {
         for (x, tol) in [
             (2.4500392080940066e-3, 1e-14),
-            (-7.784608481740518e-2, 1e-14),
+            (-7.784608481740518e-2, 0.0),
+            (3.0000000000000004e-2, 0.0),
+            (-7.784608481740518e-3, 1e-14),
             (-1.234_567_890_123_456_7e-100, 1e-12),
             (1.138e11, 0.0),
             (0.0, 0.0),
