@@ -1,6 +1,9 @@
 //! The massless boundary gives the paper formulation's answer on the built-in paper-scale
 //! models (#24), and the contact correction leaves no penetration there (#23): the
-//! quickstart's two-lobe case at Ω = 3000 rad/s, μ = 0.15, the paper's h = 1e-7 s against
+//! quickstart's two-lobe case at Ω = 3000 rad/s, μ = 0.15, the paper's formulation at
+//! h = 2e-7 s (twice the paper's 1e-7 s: its trailing-edge peak is 1.5 % higher there, its
+//! casing peak the same; one run, every step sampled, serves the comparison and the
+//! penetration check) against
 //! the massless boundary at its default step (10 steps per period of the highest dynamic
 //! mode, at least 1000 per revolution), with every retained mode and with a 50 kHz mode
 //! cutoff. Shortened to 8 ms (the load ramps over 4 ms, then is released). On the paper's
@@ -14,7 +17,9 @@ use rubscan::dynamics::low_pass::{BLADE_BAND_HZ, BesselLowPass};
 use rubscan::dynamics::numerics::Boundary;
 use rubscan::dynamics::scenario::{CoatingCase, InitialVelocity, LobeLoad};
 use rubscan::model::build::{CasingSpec, ImpellerSpec};
+use rubscan::model::rom::CyclicRom;
 use rubscan::{Case, CasingModel, Numerics, SimulationOutput, casing_rom, impeller_rom, simulate};
+use std::sync::OnceLock;
 
 const OMEGA: f64 = 3000.0;
 
@@ -37,7 +42,8 @@ fn run_case(
     run_with_modes(boundary, h, cutoff, coating, PAPER_MODES)
 }
 
-/// [`run_case`] on a built-in impeller with `modes` fixed-interface modes per nodal diameter.
+/// [`run_case`] on a built-in impeller with `modes` fixed-interface modes per nodal diameter,
+/// about one sample per 2e-6 s (the default steps are near it).
 fn run_with_modes(
     boundary: Boundary,
     h: Option<f64>,
@@ -45,16 +51,33 @@ fn run_with_modes(
     coating: Option<CoatingCase>,
     modes: usize,
 ) -> SimulationOutput {
-    let imp = impeller_rom(&ImpellerSpec {
-        modes_per_diameter: modes,
-        ..Default::default()
-    })
-    .unwrap();
-    let cas = casing_rom(&CasingSpec {
-        modes_per_diameter: PAPER_MODES,
-        ..Default::default()
-    })
-    .unwrap();
+    let decimation = h.map_or(1, |h| (2e-6 / h).round().max(1.0) as usize);
+    run_sampled(boundary, h, cutoff, coating, modes, decimation)
+}
+
+/// [`run_with_modes`] with a sample every `decimation` steps. Sample steps are where the
+/// corrected casing surface is synthesised and every contact candidate re-projected on it
+/// (the exact residual penetration); sampling changes no state.
+fn run_sampled(
+    boundary: Boundary,
+    h: Option<f64>,
+    cutoff: Option<f64>,
+    coating: Option<CoatingCase>,
+    modes: usize,
+    decimation: usize,
+) -> SimulationOutput {
+    let built;
+    let imp = if modes == PAPER_MODES {
+        &paper_roms().0
+    } else {
+        built = impeller_rom(&ImpellerSpec {
+            modes_per_diameter: modes,
+            ..Default::default()
+        })
+        .unwrap();
+        &built
+    };
+    let cas = &paper_roms().1;
     let rows = imp.contact_nodes.iter().map(|c| c.row).max().unwrap() + 1;
     let clearance_offset = coating
         .as_ref()
@@ -76,15 +99,53 @@ fn run_with_modes(
         initial_velocity: InitialVelocity::default(),
         numerics: Numerics {
             time_step: h,
-            // About one sample per 2e-6 s in every run (the default steps are near it).
-            decimation: h.map_or(1, |h| (2e-6 / h).round().max(1.0) as usize),
+            decimation,
             boundary,
             mode_cutoff_hz: cutoff,
             ..Default::default()
         },
         coating,
     };
-    simulate(&case, &imp, &CasingModel::Flexible(cas), None).unwrap()
+    simulate(&case, imp, &CasingModel::Flexible(cas.clone()), None).unwrap()
+}
+
+/// The paper's ROMs (impeller, casing), built or read from the cache once per test binary
+/// rather than by every test at once.
+fn paper_roms() -> &'static (CyclicRom, CyclicRom) {
+    static ROMS: OnceLock<(CyclicRom, CyclicRom)> = OnceLock::new();
+    ROMS.get_or_init(|| {
+        let rom = |modes_per_diameter| {
+            let imp = ImpellerSpec {
+                modes_per_diameter,
+                ..Default::default()
+            };
+            impeller_rom(&imp).unwrap()
+        };
+        let cas = CasingSpec {
+            modes_per_diameter: PAPER_MODES,
+            ..Default::default()
+        };
+        (rom(PAPER_MODES), casing_rom(&cas).unwrap())
+    })
+}
+
+/// Step (s) of the paper formulation's reference runs.
+const MASS_H: f64 = 2e-7;
+
+/// The paper's formulation at [`MASS_H`] with every step a sample step (`decimation` 1: on
+/// every step the corrected casing surface is synthesised and every contact candidate
+/// re-projected on it), run once: the reference of
+/// [`massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models`] and the
+/// run of [`contact_correction_leaves_no_penetration_on_the_quickstart_case`].
+fn paper_run() -> &'static SimulationOutput {
+    static RUN: OnceLock<SimulationOutput> = OnceLock::new();
+    RUN.get_or_init(|| run_sampled(Boundary::Mass, Some(MASS_H), None, None, PAPER_MODES, 1))
+}
+
+/// The massless boundary with the 50 kHz cutoff at its default step, run once and shared.
+fn fast_run() -> &'static SimulationOutput {
+    static RUN: OnceLock<SimulationOutput> = OnceLock::new();
+    RUN.get_or_init(|| run(Boundary::Massless, None, Some(CUTOFF_HZ)))
 }
 
 fn peak(series: &[Vec<f64>]) -> f64 {
@@ -111,50 +172,64 @@ fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b
 }
 
-/// Checks `massless` against the paper formulation's `mass` run: peak blade and casing
-/// amplitudes within 5 %, the same dominant frequency, residual ≤ 1e-8 of the level.
-fn assert_same_answer(label: &str, mass: &SimulationOutput, massless: &SimulationOutput) {
+/// Checks `massless` against the paper formulation's `mass` run on both blade-tip edges and
+/// the casing: the trailing-edge and casing peaks within 5 %, the leading edge's peak
+/// low-passed at the blade's band ([`BLADE_BAND_HZ`]) within `le_tolerance` (its raw peak
+/// carries the ringing above 20 kHz of the boundary modes, which the paper's formulation
+/// carries with mass and a massless boundary holds static: a difference of the coarse ROM,
+/// [`leading_edge_difference_shrinks_as_the_rom_converges`]; printed), the same dominant
+/// frequency, residual ≤ 1e-8 of the level.
+fn assert_same_answer(
+    label: &str,
+    mass: &SimulationOutput,
+    massless: &SimulationOutput,
+    le_tolerance: f64,
+) {
     let (te, te_ml) = (peak(&mass.blade_te_radial), peak(&massless.blade_te_radial));
     let (cas_m, cas_ml) = (peak(&mass.casing_radial), peak(&massless.casing_radial));
     let (le, le_ml) = (peak(&mass.blade_le_radial), peak(&massless.blade_le_radial));
-    let ((f, df), (f_ml, _)) = (dominant_frequency(mass), dominant_frequency(massless));
-    // Averaged over 50 µs: what is left once the boundary's fast ringing is filtered.
-    let smooth = |o: &SimulationOutput| {
-        let w = ((50e-6 / (o.time[1] - o.time[0])).round() as usize).max(1);
-        (o.blade_le_radial.iter())
-            .flat_map(|s| {
-                s.windows(w)
-                    .map(|x| (x.iter().sum::<f64>() / w as f64).abs())
-            })
-            .fold(0.0f64, f64::max)
+    let low = |o: &SimulationOutput| {
+        let p = &o.summary.peaks;
+        let band = "every step here resolves the blade's band";
+        (
+            p.blade_le_radial_lowpass.expect(band),
+            p.blade_te_radial_lowpass.expect(band),
+        )
     };
-    let (les, les_ml) = (smooth(mass), smooth(massless));
+    let ((lel, tel), (lel_ml, tel_ml)) = (low(mass), low(massless));
+    let ((f, df), (f_ml, _)) = (dominant_frequency(mass), dominant_frequency(massless));
+    let pct = |a: f64, b: f64| 100.0 * (a - b) / b;
     eprintln!(
-        "{label}: blade LE peak {le:.4e} / {le_ml:.4e} m ({:+.1} %), 50 µs average {les:.4e} / \
-         {les_ml:.4e} m ({:+.1} %)",
-        100.0 * (le_ml - le) / le,
-        100.0 * (les_ml - les) / les
+        "{label}: blade LE peak {le:.4e} / {le_ml:.4e} m ({:+.1} %), low-passed {lel:.4e} / \
+         {lel_ml:.4e} m ({:+.1} %); blade TE low-passed {tel:.4e} / {tel_ml:.4e} m ({:+.1} %)",
+        pct(le_ml, le),
+        pct(lel_ml, lel),
+        pct(tel_ml, tel),
     );
     eprintln!(
-        "mass h = 1e-7 s / {label} h = {:.3e} s: blade TE peak {te:.4e} / {te_ml:.4e} m \
+        "mass h = {:.1e} s / {label} h = {:.3e} s: blade TE peak {te:.4e} / {te_ml:.4e} m \
          ({:+.1} %), casing peak {cas_m:.4e} / {cas_ml:.4e} m ({:+.1} %), dominant {f:.0} / \
          {f_ml:.0} Hz (bin {df:.0} Hz), residual {:.2e} / {:.2e} m, loop {:.2} / {:.2} s",
+        mass.summary.time_step,
         massless.summary.time_step,
-        100.0 * (te_ml - te) / te,
-        100.0 * (cas_ml - cas_m) / cas_m,
+        pct(te_ml, te),
+        pct(cas_ml, cas_m),
         mass.summary.max_residual_penetration,
         massless.summary.max_residual_penetration,
         mass.summary.loop_seconds,
         massless.summary.loop_seconds
     );
-    assert!(
-        rel(te_ml, te) <= 0.05,
-        "{label}: blade peak {te_ml:e} vs {te:e}"
-    );
-    assert!(
-        rel(cas_ml, cas_m) <= 0.05,
-        "{label}: casing peak {cas_ml:e} vs {cas_m:e}"
-    );
+    for (name, a, b, tolerance) in [
+        ("blade TE peak", te_ml, te, 0.05),
+        ("blade LE low-passed peak", lel_ml, lel, le_tolerance),
+        ("casing peak", cas_ml, cas_m, 0.05),
+    ] {
+        assert!(
+            rel(a, b) <= tolerance,
+            "{label}: {name} {a:e} m against the paper formulation's {b:e} m ({:+.2} %)",
+            pct(a, b)
+        );
+    }
     assert!(
         (f_ml - f).abs() <= 1.5 * df,
         "{label}: dominant {f_ml} Hz vs {f} Hz"
@@ -170,13 +245,17 @@ fn assert_same_answer(label: &str, mass: &SimulationOutput, massless: &Simulatio
 
 #[test]
 fn massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models() {
-    let mass = run(Boundary::Mass, Some(1e-7), None);
+    let mass = paper_run();
     let massless = run(Boundary::Massless, None, None);
     assert!(mass.summary.contact_steps > 0 && massless.summary.contact_steps > 0);
-    assert_same_answer("massless", &mass, &massless);
-    let cut = run(Boundary::Massless, None, Some(CUTOFF_HZ));
+    assert_same_answer("massless", mass, &massless, 0.05);
+    let cut = fast_run();
     assert!(cut.summary.time_step > 4.0 * massless.summary.time_step);
-    assert_same_answer("massless, 50 kHz cutoff", &mass, &cut);
+    // The cutoff's default step is five times longer, and the leading edge converges slowly
+    // in it: `massless_formulation_converges_in_the_time_step` measured it moving by 2.4 %,
+    // then 1.6 %, per halving (each within that test's 5 %), so its distance to the limit at
+    // the default step is the sum of a slowly shrinking series: 10 % here.
+    assert_same_answer("massless, 50 kHz cutoff", mass, cut, 0.10);
 }
 
 /// Relative L2 distance of the final wear profiles of `a` to those of the reference `b` (all
@@ -196,13 +275,13 @@ fn wear_rel_l2(a: &SimulationOutput, b: &SimulationOutput) -> f64 {
 }
 
 /// The same comparison with the nominal abradable coating (issue #24's coated case): the
-/// paper's explicit coating force at h = 1e-7 s against the coating force solved with the
+/// paper's explicit coating force at [`MASS_H`] against the coating force solved with the
 /// static boundary at the massless default step; also the final wear profiles within 10 %
 /// (relative L2).
 #[test]
 fn coated_massless_boundary_gives_the_paper_formulations_answer_on_the_built_in_models() {
     let coating = || Some(CoatingCase::new(CoatingMaterial::nominal()));
-    let mass = run_case(Boundary::Mass, Some(1e-7), None, coating());
+    let mass = run_case(Boundary::Mass, Some(MASS_H), None, coating());
     let massless = run_case(Boundary::Massless, None, None, coating());
     assert_same_coated_answer("coated massless", &mass, &massless);
 }
@@ -228,7 +307,7 @@ fn assert_same_coated_answer(label: &str, mass: &SimulationOutput, massless: &Si
         100.0 * l2
     );
     assert!(cm.coating_steps > 0 && cml.coating_steps > 0);
-    assert_same_answer(label, mass, massless);
+    assert_same_answer(label, mass, massless, 0.05);
     assert!(l2 <= 0.10, "{label}: wear profile relative L2 {l2}");
 }
 
@@ -236,53 +315,105 @@ fn assert_same_coated_answer(label: &str, mass: &SimulationOutput, massless: &Si
 const CUTOFF_HZ: f64 = 5e4;
 
 /// Convergence in h of the massless formulation with the 50 kHz cutoff: the default step,
-/// then halved twice. Each run's peaks stay within 5 % of the finest, and the table is
-/// printed (`cargo test --test massless -- --nocapture`).
+/// then halved twice. At each step the peaks of both blade-tip edges (the leading edge's
+/// low-passed, as [`assert_same_answer`]) and of the casing stay within 5 % of the next finer
+/// step's, the residual within 1e-8 of the level; the table is printed
+/// (`cargo test --test massless -- --nocapture`).
 #[test]
 fn massless_formulation_converges_in_the_time_step() {
-    let default = run(Boundary::Massless, None, Some(CUTOFF_HZ));
+    let default = fast_run();
     let h = default.summary.time_step;
-    let runs = [
-        default,
-        run(Boundary::Massless, Some(0.5 * h), Some(CUTOFF_HZ)),
-        run(Boundary::Massless, Some(0.25 * h), Some(CUTOFF_HZ)),
-    ];
-    let finest = &runs[2];
-    let (te_f, cas_f) = (peak(&finest.blade_te_radial), peak(&finest.casing_radial));
+    let finer = [0.5, 0.25].map(|f| run(Boundary::Massless, Some(f * h), Some(CUTOFF_HZ)));
+    let runs = [default, &finer[0], &finer[1]];
+    let columns = |o: &SimulationOutput| {
+        let p = &o.summary.peaks;
+        let band = "the step resolves the blade's band";
+        [
+            p.blade_le_radial_lowpass.expect(band),
+            peak(&o.blade_te_radial),
+            peak(&o.casing_radial),
+        ]
+    };
+    let names = ["blade LE low-passed", "blade TE", "casing"];
     eprintln!(
-        "h (s)      | blade TE peak (m) | vs h/4  | casing peak (m) | vs h/4  | residual (m)"
+        "h (s)     | blade LE low-passed (m) | vs h/2 | blade TE (m) | vs h/2 | casing (m) | vs h/2 | residual (m)"
     );
-    for out in &runs {
-        let (te, cas) = (peak(&out.blade_te_radial), peak(&out.casing_radial));
+    for (k, out) in runs.iter().enumerate() {
+        let p = columns(out);
+        let next = runs.get(k + 1).map(|o| columns(o));
+        let vs = |i: usize| {
+            next.map_or(String::new(), |n| {
+                format!("{:+.2} %", 100.0 * (p[i] - n[i]) / n[i])
+            })
+        };
         eprintln!(
-            "{:.3e} | {te:.5e}       | {:+.2} % | {cas:.5e}     | {:+.2} % | {:.2e}",
+            "{:.3e} | {:.5e} | {} | {:.5e} | {} | {:.5e} | {} | {:.2e}",
             out.summary.time_step,
-            100.0 * (te - te_f) / te_f,
-            100.0 * (cas - cas_f) / cas_f,
+            p[0],
+            vs(0),
+            p[1],
+            vs(1),
+            p[2],
+            vs(2),
             out.summary.max_residual_penetration
         );
-        assert!(rel(te, te_f) <= 0.05 && rel(cas, cas_f) <= 0.05);
-        assert!(out.summary.max_residual_penetration <= 1e-8 * te);
+    }
+    for pair in runs.windows(2) {
+        let (p, f) = (columns(pair[0]), columns(pair[1]));
+        for i in 0..3 {
+            assert!(
+                rel(p[i], f[i]) <= 0.05,
+                "h = {:.3e} s: {} peak {:e} m, {:e} m at h/2 ({:+.2} %)",
+                pair[0].summary.time_step,
+                names[i],
+                p[i],
+                f[i],
+                100.0 * (p[i] - f[i]) / f[i]
+            );
+        }
+    }
+    for out in runs {
+        let level = peak(&out.blade_te_radial);
+        let residual = out.summary.max_residual_penetration;
+        assert!(
+            residual <= 1e-8 * level,
+            "h = {:.3e} s: residual {residual:e} m, level {level:e} m",
+            out.summary.time_step
+        );
     }
 }
 
-/// The quickstart case at h = 2e-7 s (#23): the largest penetration left after the contact
-/// correction, over every step, is below 1e-8 of the vibration level.
+/// The quickstart case in the paper's formulation at h = 2e-7 s (#23), every step a sample
+/// step ([`paper_run`]): the penetration left after the contact correction is measured
+/// exactly on every step, not on one in ten. Its largest is below 1e-8 of the vibration
+/// level, and no step's residual exceeds the gap tolerance.
 #[test]
 fn contact_correction_leaves_no_penetration_on_the_quickstart_case() {
-    let out = run(Boundary::Mass, Some(2e-7), None);
+    let out = paper_run();
+    assert_eq!(out.time.len(), out.summary.n_steps, "every step sampled");
     let level = peak(&out.blade_te_radial);
+    let bound = 1e-8 * level;
     let residual = out.summary.max_residual_penetration;
     let over = out.summary.steps_over_gap_tolerance;
+    // Each step's exact residual is in the series: the worst step, and how many exceed.
+    let (worst, at) =
+        (out.residual_penetration.iter().zip(&out.time)).fold((0.0f64, 0.0), |m, (&r, &t)| {
+            if r > m.0 { (r, t) } else { m }
+        });
+    let above = out
+        .residual_penetration
+        .iter()
+        .filter(|&&r| r > bound)
+        .count();
     eprintln!(
-        "h = 2e-7 s: residual {residual:.3e} m, level {level:.3e} m, {over} steps over tolerance"
+        "h = 2e-7 s: residual {residual:.3e} m (worst exact step {worst:.3e} m at t = {at:.6e} s), level {level:.3e} m, {over} steps over tolerance, {above} steps above 1e-8 of the level"
     );
     assert!(out.summary.contact_steps > 1000);
-    assert_eq!(over, 0);
     assert!(
-        residual <= 1e-8 * level,
-        "residual {residual:e} m, level {level:e} m"
+        residual <= bound,
+        "residual penetration {residual:e} m against the level {level:e} m (worst exact step at t = {at:e} s, {above} steps above 1e-8 of the level, {over} over the gap tolerance)"
     );
+    assert_eq!(over, 0, "steps over the gap tolerance");
 }
 
 /// The leading-edge difference belongs to the coarse ROM: with 10, 20 and 30 fixed-interface
@@ -402,7 +533,7 @@ fn zero_phase_peak(series: &[Vec<f64>], dt: f64, filter: &BesselLowPass) -> f64 
 /// up to 1.3 % off). And the band removes the impact ringing that the raw peaks carry.
 #[test]
 fn blade_peaks_low_passed_on_the_fly_are_those_of_a_zero_phase_filter() {
-    let out = run(Boundary::Massless, None, Some(CUTOFF_HZ));
+    let out = fast_run();
     let dt = out.summary.time_step;
     assert!(
         (out.time[1] - out.time[0] - dt).abs() < 1e-3 * dt,

@@ -7,11 +7,11 @@
 //! Campbell diagram's and interaction map's labels checked box by box.
 //!
 //! Needs `chromium` (Debian `chromium`, installed by `.ci/setup`) on the PATH for the browser
-//! test; without it the test fails when the environment variable `CI` is set and prints a
-//! skip note otherwise (as the CalculiX tests do).
+//! test; without it the test fails under the README's test command (`RUBSCAN_REQUIRE_TOOLS`) or
+//! in CI and prints a skip note otherwise (as the CalculiX tests do).
 
 mod common;
-use common::{find_on_path, skip_or_fail};
+use common::{find_on_path, quickstart_output, skip_or_fail};
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -285,21 +285,22 @@ fn report_of_a_small_sweep_shows_every_figure_in_a_browser() {
     cleanup(&dir);
 }
 
-/// The main job itself (`rubscan run sweeps/quickstart.json`, no `--timeseries`): no figure
+/// The main job itself (`rubscan run sweeps/quickstart.json`, no `--timeseries`; the run shared
+/// with `tests/quickstart_reference.rs`, which holds its table to the reference): no figure
 /// of its report is without data, in a browser's screenshot. With no series and no coating
 /// the time histories are left out, with one note saying how to get them, instead of empty
 /// panels.
 #[test]
 fn the_main_jobs_report_has_no_figure_without_data() {
     let dir = tmp("noseries");
-    let quickstart = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/quickstart.json");
+    let out = dir.join("report");
     ok(rubscan()
-        .args(["run", quickstart, "--threads", "2", "-o"])
-        .arg(&dir)
+        .arg("report")
+        .arg(quickstart_output())
+        .arg("-o")
+        .arg(&out)
         .output()
         .unwrap());
-    ok(rubscan().arg("report").arg(&dir).output().unwrap());
-    let out = dir.join("report");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let figures = page_figures(&html);
     assert_eq!(

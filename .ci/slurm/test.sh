@@ -6,5 +6,6 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 start=$(date +%s)
 .ci/slurm/start.sh
-RUBSCAN_SLURM_TEST=1 cargo test --locked --test slurm real_slurm -- --nocapture
+# `--workspace`: the same features, hence the same build, as the README's test command.
+RUBSCAN_SLURM_TEST=1 cargo test --locked --workspace --test slurm real_slurm -- --nocapture
 echo "Slurm test done in $(( $(date +%s) - start )) s"

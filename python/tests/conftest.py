@@ -21,10 +21,11 @@ def repo() -> Path:
 
 @pytest.fixture(scope="session")
 def cli() -> Path:
-    """The release `rubscan` binary (RUBSCAN_BIN overrides); `.ci/test` builds it first."""
-    path = Path(os.environ.get("RUBSCAN_BIN", REPO / "target" / "release" / "rubscan"))
+    """The `rubscan` binary that `cargo test` builds (RUBSCAN_BIN overrides); `.ci/test` runs
+    the Rust tests first."""
+    path = Path(os.environ.get("RUBSCAN_BIN", REPO / "target" / "debug" / "rubscan"))
     if not path.is_file():
-        pytest.fail(f"{path}: no rubscan binary (run `cargo build --release` first)")
+        pytest.fail(f"{path}: no rubscan binary (run `cargo test --no-run` or set RUBSCAN_BIN)")
     return path
 
 

@@ -5,6 +5,7 @@ use arrow_array::RecordBatch;
 use rubscan::sweep::table::read_results;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::OnceLock;
 
 /// The `rubscan` binary under test, run from the crate root and outside any Slurm job: the
 /// variables of an array task are removed, so that a test run inside one (CI on a cluster)
@@ -53,12 +54,61 @@ pub fn find_on_path(names: &[&str]) -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
-/// Skips `test` (prints why) unless `CI` is set, in which case a missing prerequisite fails.
+/// Skips `test` for want of a tool or file, or fails it when that is required: when
+/// `RUBSCAN_REQUIRE_TOOLS` (set by the README's test command, `.ci/test`, which installs every
+/// tool the tests use) or `CI` is set. A skip is written straight to the process's standard
+/// error, which libtest does not capture (it captures `print!` and `eprint!` only), so that it
+/// shows even when the test passes.
 pub fn skip_or_fail(test: &str, why: &str) {
-    if std::env::var_os("CI").is_some() {
-        panic!("{why} (required because CI is set)");
+    for var in ["RUBSCAN_REQUIRE_TOOLS", "CI"] {
+        if std::env::var_os(var).is_some() {
+            panic!("{test}: {why} (required because {var} is set)");
+        }
     }
-    eprintln!("SKIPPED {test}: {why}");
+    use std::io::Write;
+    let _ = writeln!(
+        std::io::stderr(),
+        "SKIPPED {test} (not run, but reported as passed): {why}"
+    );
+}
+
+/// The output folder of the README's main job, `rubscan run sweeps/quickstart.json --threads 2`,
+/// run once per build of the binary under test and shared by every test binary of a `cargo
+/// test` run instead of once in each: kept under `CARGO_TARGET_TMPDIR`, keyed by the binary's
+/// size and modification time and by the spec's text, and made whole by a rename. Read it; write
+/// nothing into it (a report goes elsewhere with `-o`).
+pub fn quickstart_output() -> &'static Path {
+    static OUT: OnceLock<PathBuf> = OnceLock::new();
+    OUT.get_or_init(|| {
+        use std::hash::{Hash, Hasher};
+        let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps/quickstart.json");
+        let bin = std::fs::metadata(env!("CARGO_BIN_EXE_rubscan")).unwrap();
+        let mut key = std::collections::hash_map::DefaultHasher::new();
+        (bin.len(), bin.modified().unwrap()).hash(&mut key);
+        std::fs::read(&spec).unwrap().hash(&mut key);
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+            .join(format!("quickstart-{:016x}", key.finish()));
+        if !dir.join("results.parquet").is_file() {
+            let part = dir.with_extension(format!("part{}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&part);
+            let run = rubscan()
+                .args(["run", "sweeps/quickstart.json", "--threads", "2", "-o"])
+                .arg(&part)
+                .output()
+                .unwrap();
+            assert!(
+                run.status.success(),
+                "the quickstart failed: {}",
+                stderr(&run)
+            );
+            // Another test binary running beside this one may have finished first: keep its.
+            if std::fs::rename(&part, &dir).is_err() {
+                assert!(dir.join("results.parquet").is_file(), "{}", dir.display());
+                let _ = std::fs::remove_dir_all(&part);
+            }
+        }
+        dir
+    })
 }
 
 /// Removes a scratch folder when dropped, even if the test fails.

@@ -1,0 +1,37 @@
+# Sourced by .ci/run and .ci/test (after `set -euo pipefail`): `step <name> <command…>` runs a
+# command, echoes its name and appends its wall time to a table that the outermost script
+# prints when it exits, also on failure (the failing step marked). Nested scripts add their
+# steps to their caller's table.
+ci_step_name=""
+if [ -z "${RUBSCAN_CI_STEPS:-}" ]; then
+  export RUBSCAN_CI_STEPS="$PWD/target/ci-steps.tsv"
+  mkdir -p "$(dirname "$RUBSCAN_CI_STEPS")"
+  : > "$RUBSCAN_CI_STEPS"
+  ci_outermost=1
+fi
+ci_started=$(date +%s)
+
+ci_on_exit() {
+  local rc=$?
+  if [ -n "$ci_step_name" ]; then
+    printf '%s\t%d\tFAILED\n' "$ci_step_name" "$(( $(date +%s) - ci_step_t0 ))" >> "$RUBSCAN_CI_STEPS"
+  fi
+  if [ -n "${ci_outermost:-}" ]; then
+    echo
+    echo "== wall time per step (s)"
+    awk -F'\t' '{ printf "%6d  %s%s\n", $2, $1, ($3 == "" ? "" : "  <- " $3) }' "$RUBSCAN_CI_STEPS"
+    printf "%6d  total, %s\n" "$(( $(date +%s) - ci_started ))" \
+      "$([ "$rc" -eq 0 ] && echo passed || echo "FAILED (exit status $rc)")"
+  fi
+}
+trap ci_on_exit EXIT
+
+step() {
+  ci_step_name=$1
+  shift
+  echo "== $ci_step_name"
+  ci_step_t0=$(date +%s)
+  "$@"
+  printf '%s\t%d\n' "$ci_step_name" "$(( $(date +%s) - ci_step_t0 ))" >> "$RUBSCAN_CI_STEPS"
+  ci_step_name=""
+}
