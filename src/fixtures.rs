@@ -1,7 +1,7 @@
-//! Test and benchmark fixtures (compiled for tests, and for benches and integration tests
-//! through the `fixtures` feature; not part of the library's API): synthetic cyclic
-//! Craig–Bampton ROMs with realistic sizes and spectra, and the deterministic generator
-//! [`Lcg`] behind them and behind the randomised unit tests.
+//! Test and benchmark fixtures (not part of the library's API, hidden from its documentation;
+//! compiled in every build, so that the unit tests need no second build of the library to wait
+//! for): synthetic cyclic Craig–Bampton ROMs with realistic sizes and spectra, and the
+//! deterministic generator [`Lcg`] behind them and behind the randomised unit tests.
 //!
 //! A **test and benchmark fixture** (not a physical model): it lets the dynamics be tested and
 //! timed before the finite-element pipeline delivers real ROMs. Per sector: `n_c` contact nodes

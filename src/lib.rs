@@ -11,7 +11,7 @@
 //!   between them (made once; `RUBSCAN_SIMD=portable` forces the portable path);
 //! - [`io`]: files: atomic writes, content hashes, ROM files and cache, FE model readers, the
 //!   time-series writer (the numerics stages above never touch the file system);
-//! - `fixtures` (tests and benches only, feature `fixtures`): synthetic ROMs and a seeded
+//! - `fixtures` (hidden, for tests and benches): synthetic ROMs and a seeded
 //!   generator;
 //! - [`app`]: each `rubscan` subcommand as a library call (the binary only parses arguments).
 //!
@@ -61,7 +61,7 @@ pub mod analysis;
 pub mod app;
 pub mod contact;
 pub mod dynamics;
-#[cfg(any(test, feature = "fixtures"))]
+#[doc(hidden)]
 pub mod fixtures;
 pub mod io;
 pub mod model;

@@ -7,7 +7,7 @@
 //! shard outputs combine with [`runner::merge`].
 //!
 //! The simulation itself is behind the [`JobSimulator`] trait; `synthetic::SyntheticSimulator`
-//! (with the `fixtures` feature) is a deterministic analytic stand-in used by the tests.
+//! (hidden, for tests) is a deterministic analytic stand-in used by the tests.
 
 pub mod aggregate;
 pub mod checkpoint;
@@ -27,7 +27,7 @@ pub mod slurm;
 pub mod spec;
 pub mod stability_plot;
 pub mod status;
-#[cfg(any(test, feature = "fixtures"))]
+#[doc(hidden)]
 pub mod synthetic;
 pub mod table;
 pub mod validate;
