@@ -1,6 +1,7 @@
 //! NASA Rotor 37 blade (CalculiX model in `../shared/rotor37`, see its README): run CalculiX,
-//! import its stored matrices, reduce them (Craig–Bampton on the 16 blade-tip nodes, 50
-//! fixed-interface modes), then
+//! import its stored matrices and reduce them (Craig–Bampton on the 16 blade-tip nodes, 50
+//! fixed-interface modes) with the README's command and spec (`rubscan model import calculix
+//! tests/data/rotor37_benchmark_import.json`), then
 //! 1. compare the reduced model's eigenfrequencies with the ones CalculiX's own Lanczos solver
 //!    prints in `blade.dat` (step 1 of the deck): an independent reference;
 //! 2. run the sweep `sweeps/rotor37_two_lobe.json` on that ROM and check, in its Parquet table,
@@ -21,11 +22,9 @@ mod common;
 use arrow_array::cast::AsArray;
 use arrow_array::types::Float64Type;
 use arrow_array::{Array, RecordBatch};
-use common::{Scratch, find_on_path, skip_or_fail};
+use common::{Scratch, find_on_path, rubscan, skip_or_fail, stderr};
 use nalgebra::{DMatrix, Vector3};
-use rubscan::io::calculix::{
-    CalculixImportSpec, ContactSelection, Units, import_calculix, read_calculix_mesh,
-};
+use rubscan::io::calculix::{Units, read_calculix_mesh};
 use rubscan::io::rom_file;
 use rubscan::model::eigen::symmetric_gen_eigen;
 use rubscan::model::rom::CyclicRom;
@@ -45,6 +44,9 @@ const TIP: [usize; 16] = [
 
 /// Fixed-interface modes kept in the reduction.
 const N_MODES: usize = 50;
+
+/// The imported ROM's file in [`ccx_dir`].
+const IMPORTED_ROM: &str = "blade_benchmark.rom";
 
 fn model_dir() -> Option<PathBuf> {
     if let Some(d) = std::env::var_os("RUBSCAN_ROTOR37_DIR") {
@@ -245,19 +247,39 @@ fn setup() -> Result<Imported, Unavailable> {
         std::fs::read(src.join("blade.dof")).map_err(|e| fail("shipped blade.dof", &e))?;
     let reference = dat_frequencies(&work.join("blade.dat"));
 
-    let spec = CalculixImportSpec {
-        recovery_nodes: vec![RECOVERED],
-        ..CalculixImportSpec::from_job(
-            &work,
-            "blade",
-            ContactSelection::Nodes(TIP.to_vec()),
-            N_MODES,
-            Units::MmTonneSecond,
-        )
-    };
+    // The README's import (`tests/data/rotor37_benchmark_import.json`, the reduction above)
+    // with this build's CLI; its ROM is kept beside CalculiX's run for `.ci/run`'s benchmark
+    // step, which runs the same command with the same binary.
+    let import_spec = work.join("rotor37_benchmark_import.json");
+    let shipped_spec =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rotor37_benchmark_import.json");
+    std::fs::copy(&shipped_spec, &import_spec).map_err(|e| fail("import spec", &e))?;
+    let rom_path = work.join(IMPORTED_ROM);
+    let part = work.join(format!("{IMPORTED_ROM}.part{}", std::process::id()));
     let t = Instant::now();
-    let rom = import_calculix(&spec).map_err(|e| fail("import and reduction", &e))?;
+    let import = rubscan()
+        .args(["model", "import", "calculix"])
+        .arg(&import_spec)
+        .arg("-o")
+        .arg(&part)
+        .output()
+        .map_err(|e| fail("running rubscan model import", &e))?;
     let import_time = t.elapsed();
+    if !import.status.success() {
+        return Err(Unavailable::Failed(format!(
+            "rubscan model import calculix failed: {}",
+            stderr(&import)
+        )));
+    }
+    std::fs::rename(&part, &rom_path).map_err(|e| fail(IMPORTED_ROM, &e))?;
+    let rom = rom_file::load(&rom_path).map_err(|e| fail(IMPORTED_ROM, &e))?;
+    let ids: Vec<_> = rom.contact_nodes.iter().map(|c| c.id).collect();
+    if ids != TIP.map(Some) {
+        return Err(Unavailable::Failed(format!(
+            "{}: contact nodes {ids:?}, the tests expect {TIP:?}",
+            shipped_spec.display()
+        )));
+    }
     let mesh = read_calculix_mesh(&work.join("blade.inp")).map_err(|e| fail("blade.inp", &e))?;
     let tip_mm = TIP.iter().map(|id| mesh.nodes[id]).collect();
     let full_at_recovered = full_static_solution(&work).map_err(|e| fail("full FE solve", &e))?;
