@@ -14,12 +14,13 @@ use common::{Scratch, quickstart_output, rubscan, stderr, table_without_timing};
 
 use arrow_array::Array;
 use rubscan::io::calculix_export::model_deck;
-use rubscan::io::calculix_sector::{CalculixSectorSpec, import_calculix_sector};
+use rubscan::io::rom_file;
 use rubscan::model::build::{CasingSpec, ImpellerSpec, build_casing, build_impeller};
 use rubscan::model::mesh::{CasingGeometry, ImpellerGeometry};
 use rubscan::model::rom::CyclicRom;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 fn data() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/imported")
@@ -62,12 +63,30 @@ fn the_example_decks_are_the_built_in_sectors() {
     }
 }
 
-fn import(spec_file: &str) -> CyclicRom {
-    let path = data().join(spec_file);
-    let mut spec: CalculixSectorSpec =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    spec.deck = data().join(&spec.deck);
-    import_calculix_sector(&spec).unwrap()
+/// The example pair imported once per test binary with the README's commands (`rubscan model
+/// import calculix-cyclic tests/data/imported/{impeller,casing}_import.json -o
+/// results/imported/<c>.rom`, under a scratch folder) and read back: `[impeller, casing]`,
+/// and the folder.
+fn imported_pair() -> &'static ([CyclicRom; 2], PathBuf) {
+    static PAIR: OnceLock<([CyclicRom; 2], PathBuf)> = OnceLock::new();
+    PAIR.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("calculix_import");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("results/imported")).unwrap();
+        let roms = ["impeller", "casing"].map(|c| {
+            let rom = dir.join(format!("results/imported/{c}.rom"));
+            let o = rubscan()
+                .args(["model", "import", "calculix-cyclic"])
+                .arg(data().join(format!("{c}_import.json")))
+                .arg("-o")
+                .arg(&rom)
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", stderr(&o));
+            rom_file::load(&rom).unwrap()
+        });
+        (roms, dir)
+    })
 }
 
 /// Largest relative difference between the two ROMs' frequencies over every nodal
@@ -113,15 +132,10 @@ fn shape_difference(a: &CyclicRom, b: &CyclicRom) -> f64 {
 /// node and frequency to the bit, the stored mode shapes to round-off.
 #[test]
 fn imported_sectors_reduce_to_the_built_in_roms() {
+    let [impeller, casing] = &imported_pair().0;
     let pairs = [
-        (
-            import("impeller_import.json"),
-            build_impeller(&ImpellerSpec::default()).unwrap(),
-        ),
-        (
-            import("casing_import.json"),
-            build_casing(&CasingSpec::default()).unwrap(),
-        ),
+        (impeller, build_impeller(&ImpellerSpec::default()).unwrap()),
+        (casing, build_casing(&CasingSpec::default()).unwrap()),
     ];
     for (imported, built_in) in &pairs {
         let worst = frequency_difference(imported, built_in);
@@ -161,7 +175,7 @@ fn imported_sectors_reduce_to_the_built_in_roms() {
             m.shapes_im.clone_from(&n.shapes_im);
         }
         assert!(
-            *imported == same,
+            **imported == same,
             "{}: the imported ROM differs from the built-in one",
             imported.name
         );
@@ -236,20 +250,8 @@ const TABLE_TOLERANCE: f64 = 1e-9;
 /// names the models' source).
 #[test]
 fn the_quickstart_on_the_imported_pair_matches_the_built_in_one() {
-    let work = scratch("quickstart");
-    let dir = &work.0;
+    let dir = &imported_pair().1;
     std::fs::create_dir_all(dir.join("sweeps")).unwrap();
-    std::fs::create_dir_all(dir.join("results/imported")).unwrap();
-    for c in ["impeller", "casing"] {
-        let o = rubscan()
-            .args(["model", "import", "calculix-cyclic"])
-            .arg(data().join(format!("{c}_import.json")))
-            .arg("-o")
-            .arg(dir.join(format!("results/imported/{c}.rom")))
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
     // The sweep names its ROMs relative to itself: run a copy beside the imported ROMs.
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let spec = std::fs::read_to_string(root.join("sweeps/imported_quickstart.json")).unwrap();
