@@ -254,14 +254,14 @@ fn setup() -> Result<Imported, Unavailable> {
     let shipped_spec =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/rotor37_benchmark_import.json");
     std::fs::copy(&shipped_spec, &import_spec).map_err(|e| fail("import spec", &e))?;
+    // The CLI writes the ROM atomically (`io::atomic`): a half-written file is never seen.
     let rom_path = work.join(IMPORTED_ROM);
-    let part = work.join(format!("{IMPORTED_ROM}.part{}", std::process::id()));
     let t = Instant::now();
     let import = rubscan()
         .args(["model", "import", "calculix"])
         .arg(&import_spec)
         .arg("-o")
-        .arg(&part)
+        .arg(&rom_path)
         .output()
         .map_err(|e| fail("running rubscan model import", &e))?;
     let import_time = t.elapsed();
@@ -271,7 +271,6 @@ fn setup() -> Result<Imported, Unavailable> {
             stderr(&import)
         )));
     }
-    std::fs::rename(&part, &rom_path).map_err(|e| fail(IMPORTED_ROM, &e))?;
     let rom = rom_file::load(&rom_path).map_err(|e| fail(IMPORTED_ROM, &e))?;
     let ids: Vec<_> = rom.contact_nodes.iter().map(|c| c.id).collect();
     if ids != TIP.map(Some) {
