@@ -28,7 +28,7 @@
 //! README's test command (`RUBSCAN_REQUIRE_TOOLS`) or in CI and prints a skip note otherwise
 //! (as `tests/rotor37.rs`).
 
-mod common;
+use crate::common;
 use common::{Scratch, find_on_path, skip_or_fail};
 use rubscan::io::calculix_dat::{distinct_pairs, read_cyclic_frequencies};
 use rubscan::model::build::{

@@ -9,7 +9,7 @@
 //! gave tables 0.36 % apart. Bad sector decks are refused before any reduction, naming the
 //! file and the cause, with a non-zero status and no ROM written.
 
-mod common;
+use crate::common;
 use common::{Scratch, quickstart_output, rubscan, stderr, table_without_timing};
 
 use arrow_array::Array;

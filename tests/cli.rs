@@ -2,7 +2,7 @@
 //! Parquet time series, clear errors on bad specs, and a sweep killed with SIGKILL then
 //! resumed giving the table of an uninterrupted run.
 
-mod common;
+use crate::common;
 use common::{rubscan, stderr, table_without_timing};
 
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! exit status 1, an error naming the argument and the reason, and nothing written; a
 //! corrupt shard manifest is named in a warning by `status` instead of being skipped.
 
-mod common;
+use crate::common;
 use common::{rubscan, stderr};
 
 use std::path::{Path, PathBuf};

@@ -318,7 +318,7 @@ const CUTOFF_HZ: f64 = 5e4;
 /// then halved twice. At each step the peaks of both blade-tip edges (the leading edge's
 /// low-passed, as [`assert_same_answer`]) and of the casing stay within 5 % of the next finer
 /// step's, the residual within 1e-8 of the level; the table is printed
-/// (`cargo test --test massless -- --nocapture`).
+/// (`cargo test --test integration massless:: -- --nocapture`).
 #[test]
 fn massless_formulation_converges_in_the_time_step() {
     let default = fast_run();
@@ -420,7 +420,7 @@ fn contact_correction_leaves_no_penetration_on_the_quickstart_case() {
 /// modes per nodal diameter, the two formulations' leading-edge peaks come together (the
 /// paper's formulation's falls as the ROM converges, the massless one's barely moves), to
 /// within 5 % at 30. A study (a few minutes, three impeller ROMs built):
-/// `cargo test --release --test massless -- --ignored --nocapture`.
+/// `cargo test --release --test integration massless:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn leading_edge_difference_shrinks_as_the_rom_converges() {
@@ -453,7 +453,7 @@ fn leading_edge_difference_shrinks_as_the_rom_converges() {
 /// force at the end of the step alone (an implicit-Euler spring) and the elements a tip jumps
 /// over cut at its end-of-step gap, the trailing edge was −5.1 %, the coating force −3.4 %
 /// and the wear 8.9 % off.
-/// `cargo test --test massless -- --nocapture` prints the table.
+/// `cargo test --test integration massless:: -- --nocapture` prints the table.
 #[test]
 fn coated_massless_formulation_converges_in_the_time_step_with_a_cutoff() {
     let coated = |h: Option<f64>| {

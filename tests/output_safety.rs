@@ -4,7 +4,7 @@
 //! `status` names the job records it cannot read. Library calls on the synthetic simulator, and
 //! the binary on the small built-in models for the exit statuses.
 
-mod common;
+use crate::common;
 use common::stderr;
 
 use std::path::{Path, PathBuf};

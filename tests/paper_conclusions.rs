@@ -181,7 +181,7 @@ fn coated_tips_start_at_the_clearance_from_the_unworn_coating() {
 /// 0.9678, 0.9721, 0.9781 m over the 5 × 6000 elements); with (E/10, K/10) it falls with μ,
 /// by 0.1 %. It holds for blades leaned against the rotation
 /// (`the_friction_trend_of_the_wear_follows_the_blade_lean`). Run it with
-/// `cargo test --test paper_conclusions -- --ignored` to see the current numbers.
+/// `cargo test --test integration paper_conclusions:: -- --ignored` to see the current numbers.
 #[test]
 #[ignore = "paper §5.1 does not hold in rubscan on the built-in models (docs/validation.md)"]
 fn lower_friction_wears_more() {

@@ -2,7 +2,7 @@
 //! gives the stored reference table bit for bit (all but the wall time). A change to the
 //! numbers must come with a new reference and the reason for it in its commit.
 
-mod common;
+use crate::common;
 use common::{quickstart_output, table_without_timing};
 
 use std::path::Path;

@@ -4,7 +4,7 @@
 //! kill and resume in the middle of a round. The jobs are analytic (known onset and peak),
 //! so that what is tested is the planning, not the physics.
 
-mod common;
+use crate::common;
 use common::table_without_timing;
 
 use std::path::{Path, PathBuf};

@@ -10,7 +10,7 @@
 //! test; without it the test fails under the README's test command (`RUBSCAN_REQUIRE_TOOLS`) or
 //! in CI and prints a skip note otherwise (as the CalculiX tests do).
 
-mod common;
+use crate::common;
 use common::{find_on_path, quickstart_output, skip_or_fail};
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};

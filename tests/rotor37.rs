@@ -18,7 +18,7 @@
 //! looked up in `$RUBSCAN_ROTOR37_DIR`, then `../shared/rotor37` and `../../shared/rotor37`
 //! relative to the package (the second one serves git worktrees under `wt/<name>`).
 
-mod common;
+use crate::common;
 use arrow_array::cast::AsArray;
 use arrow_array::types::Float64Type;
 use arrow_array::{Array, RecordBatch};
@@ -812,7 +812,7 @@ fn rotor37_benchmark_runs_and_reports_its_figures() {
 
 /// The benchmark in the paper's formulation (the README's runs, 467,000 steps each) beside the
 /// massless boundary: the same physics checks, and counter-clockwise the massless boundary
-/// within 5 % of it. A study: `cargo test --release --test rotor37 -- --ignored`.
+/// within 5 % of it. A study: `cargo test --release --test integration rotor37:: -- --ignored`.
 #[test]
 #[ignore = "study: the paper's formulation over 50 revolutions, both senses (minutes)"]
 fn rotor37_benchmark_in_the_papers_formulation() {

@@ -2,7 +2,7 @@
 //! the merge of its shard directories, and (with `RUBSCAN_SLURM_TEST=1`, on a machine where
 //! `.ci/slurm/start.sh` has started a one-node cluster) a real array submitted and merged.
 
-mod common;
+use crate::common;
 use common::{rubscan, stderr, table_without_timing};
 
 use std::path::{Path, PathBuf};

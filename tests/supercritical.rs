@@ -484,9 +484,9 @@ fn the_fastest_runaway_is_called_at_the_solve_breakdown() {
 /// within the documented gap of the prediction; unwatched, the same job runs on until its
 /// contact solve gives up, with the error that names the critical wave (it used to fail so,
 /// "residual penetration 1.4e-5 m after correction"). The full-fidelity tier:
-/// `cargo test --release --test supercritical -- --ignored`.
+/// `cargo test --release --test integration supercritical:: -- --ignored`.
 #[test]
-#[ignore = "full fidelity: cargo test --release --test supercritical -- --ignored"]
+#[ignore = "full fidelity: cargo test --release --test integration supercritical:: -- --ignored"]
 fn the_fastest_runaway_on_the_papers_formulation_keeps_exact_contact_up_to_its_stop() {
     let omega = 8131.262;
     let mut v = shipped_case_study_2_at(omega, 6e-3);

@@ -1,6 +1,6 @@
 //! Runner: resume, thread-count and shard independence, Parquet read-back, failures.
 
-mod common;
+use crate::common;
 use common::table_without_timing;
 
 use std::path::{Path, PathBuf};

@@ -7,5 +7,5 @@ cd "$(dirname "$0")/../.."
 start=$(date +%s)
 .ci/slurm/start.sh
 # `--workspace`: the same features, hence the same build, as the README's test command.
-RUBSCAN_SLURM_TEST=1 cargo test --locked --workspace --test slurm real_slurm -- --nocapture
+RUBSCAN_SLURM_TEST=1 cargo test --locked --workspace --test integration slurm::real_slurm -- --nocapture
 echo "Slurm test done in $(( $(date +%s) - start )) s"

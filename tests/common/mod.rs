@@ -73,7 +73,7 @@ pub fn skip_or_fail(test: &str, why: &str) {
 }
 
 /// The output folder of the README's main job, `rubscan run sweeps/quickstart.json --threads 2`,
-/// run once per build of the binary under test and shared by every test binary of a `cargo
+/// run once per build of the binary under test and shared by every test process of a `cargo
 /// test` run instead of once in each: kept under `CARGO_TARGET_TMPDIR`, keyed by the binary's
 /// size and modification time and by the spec's text, and made whole by a rename. Read it; write
 /// nothing into it (a report goes elsewhere with `-o`).
@@ -101,7 +101,7 @@ pub fn quickstart_output() -> &'static Path {
                 "the quickstart failed: {}",
                 stderr(&run)
             );
-            // Another test binary running beside this one may have finished first: keep its.
+            // Another test process running beside this one may have finished first: keep its.
             if std::fs::rename(&part, &dir).is_err() {
                 assert!(dir.join("results.parquet").is_file(), "{}", dir.display());
                 let _ = std::fs::remove_dir_all(&part);
