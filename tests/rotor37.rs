@@ -91,6 +91,8 @@ fn relative_errors(rom: &[f64], reference: &[f64]) -> Vec<f64> {
 struct Imported {
     /// The reduced model (SI).
     rom: CyclicRom,
+    /// The file the import wrote it to ([`IMPORTED_ROM`] in [`ccx_dir`]), which the runs read.
+    rom_path: PathBuf,
     /// Eigenfrequencies (Hz) of the clamped blade printed by CalculiX in `blade.dat`.
     reference: Vec<f64>,
     /// Whether the DOF map written by ccx equals the shipped `blade.dof`.
@@ -286,6 +288,7 @@ fn setup() -> Result<Imported, Unavailable> {
         tip_load: tip_load(),
         full_at_recovered,
         rom,
+        rom_path,
         reference,
         dof_map_matches: produced == shipped,
         tip_mm,
@@ -665,13 +668,9 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
     // 2. The sweep, as shipped, on the freshly imported ROM.
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut spec = load_spec(&root.join("sweeps/rotor37_two_lobe.json")).expect("sweep spec");
-    let work = std::env::temp_dir().join(format!("rubscan-rotor37-sweep-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&work);
-    std::fs::create_dir_all(&work).unwrap();
-    let _guard = Scratch(work.clone());
-    let rom_path = work.join("blade.rom");
-    rom_file::save(rom, &rom_path).expect("ROM written");
-    spec.models.impeller = ModelSource::Rom(rom_path);
+    let guard = scratch("sweep");
+    let work = guard.0.clone();
+    spec.models.impeller = ModelSource::Rom(imp.rom_path.clone());
     let sim = ModelSimulator::new(&spec).expect("models of the sweep");
     let t = Instant::now();
     let summary = run_sweep(&spec, &RunOptions::new(work.join("out")), &sim).expect("sweep");
@@ -790,18 +789,18 @@ fn rotor37_two_lobe_sweep_peaks_lie_in_the_contact_bands() {
 #[test]
 fn rotor37_benchmark_runs_and_reports_its_figures() {
     let Some(imp) = imported() else { return };
-    let (guard, rom_path) = saved_rom(imp, "bench");
-    let work = guard.0.clone();
+    let guard = scratch("bench");
+    let (work, rom_path) = (guard.0.clone(), &imp.rom_path);
     let h = 2.0 * std::f64::consts::PI / (1344.0 * 1000.0);
     for sweep in ["rotor37_benchmark", "rotor37_benchmark_ccw"] {
         let work = work.join(sweep);
-        let massless = run_benchmark(&rom_path, &work.join("massless"), Some(h), sweep);
+        let massless = run_benchmark(rom_path, &work.join("massless"), Some(h), sweep);
         check_benchmark_physics(&massless, sweep);
         if sweep == "rotor37_benchmark" {
             // Clockwise the two formulations differ by 7 % on node 1353's peak-to-peak, and
             // the mass formulation moves by as much when its step is halved (issue 38, open):
             // what holds is the massless boundary converged in its step.
-            let finer = run_benchmark(&rom_path, &work.join("massless2"), Some(0.5 * h), sweep);
+            let finer = run_benchmark(rom_path, &work.join("massless2"), Some(0.5 * h), sweep);
             assert!(
                 benchmarks_agree(&massless, &finer, 0.02),
                 "{sweep}: massless, h against h/2"
@@ -817,15 +816,15 @@ fn rotor37_benchmark_runs_and_reports_its_figures() {
 #[ignore = "study: the paper's formulation over 50 revolutions, both senses (minutes)"]
 fn rotor37_benchmark_in_the_papers_formulation() {
     let Some(imp) = imported() else { return };
-    let (guard, rom_path) = saved_rom(imp, "bench_mass");
-    let work = guard.0.clone();
+    let guard = scratch("bench_mass");
+    let (work, rom_path) = (guard.0.clone(), &imp.rom_path);
     let h = 2.0 * std::f64::consts::PI / (1344.0 * 1000.0);
     for sweep in ["rotor37_benchmark", "rotor37_benchmark_ccw"] {
         let work = work.join(sweep);
-        let mass = run_benchmark(&rom_path, &work.join("mass"), None, sweep);
+        let mass = run_benchmark(rom_path, &work.join("mass"), None, sweep);
         check_benchmark_physics(&mass, sweep);
         if sweep == "rotor37_benchmark_ccw" {
-            let massless = run_benchmark(&rom_path, &work.join("massless"), Some(h), sweep);
+            let massless = run_benchmark(rom_path, &work.join("massless"), Some(h), sweep);
             assert!(
                 benchmarks_agree(&massless, &mass, 0.05),
                 "{sweep}: massless against mass"
@@ -874,9 +873,9 @@ fn benchmarks_agree(a: &BenchmarkFigures, b: &BenchmarkFigures, tol: f64) -> boo
 #[test]
 fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
     let Some(imp) = imported() else { return };
-    let (guard, rom_path) = saved_rom(imp, "threads");
-    let work = guard.0.clone();
-    let mut spec = benchmark_spec(&rom_path, "rotor37_benchmark");
+    let guard = scratch("threads");
+    let (work, rom_path) = (guard.0.clone(), &imp.rom_path);
+    let mut spec = benchmark_spec(rom_path, "rotor37_benchmark");
     spec["scenario"]["duration_s"] = serde_json::json!(6.0 * 2.0 * std::f64::consts::PI / 1344.0);
     spec["scenario"]["revolution_report"] =
         serde_json::json!({"peak_to_peak_revolutions": 1, "mean_revolutions": 1});
@@ -923,14 +922,12 @@ fn rotor37_benchmark_does_not_depend_on_the_thread_count() {
     assert_eq!(parallel["steps_over_gap_tolerance"].as_u64(), Some(0));
 }
 
-/// A scratch directory (removed on drop) holding the imported ROM as `blade_benchmark.rom`.
-fn saved_rom(imp: &Imported, tag: &str) -> (Scratch, PathBuf) {
+/// An empty scratch directory for the test `tag`, removed on drop.
+fn scratch(tag: &str) -> Scratch {
     let work = std::env::temp_dir().join(format!("rubscan-rotor37-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&work);
     std::fs::create_dir_all(&work).unwrap();
-    let rom_path = work.join("blade_benchmark.rom");
-    rom_file::save(&imp.rom, &rom_path).expect("ROM written");
-    (Scratch(work), rom_path)
+    Scratch(work)
 }
 
 /// `sweeps/<sweep>.json` on the ROM at `rom_path`.
@@ -1042,7 +1039,7 @@ fn rotor37_mirrored_and_turned_the_other_way_gives_the_mirrored_response() {
     use rubscan::sweep::{parse_spec, plan};
     const REVOLUTIONS: f64 = 1.0;
     let Some(imp) = imported() else { return };
-    let (guard, rom_path) = saved_rom(imp, "mirror");
+    let (guard, rom_path) = (scratch("mirror"), &imp.rom_path);
     let mirrored_path = guard.0.join("blade_mirrored.rom");
     rom_file::save(&imp.rom.mirrored(), &mirrored_path).expect("mirrored ROM written");
     let run = |rom: &Path, rotation: &str| {
@@ -1063,7 +1060,7 @@ fn rotor37_mirrored_and_turned_the_other_way_gives_the_mirrored_response() {
         rec.out
     };
     let (turned, mirror) = (
-        run(&rom_path, "clockwise"),
+        run(rom_path, "clockwise"),
         run(&mirrored_path, "counterclockwise"),
     );
     let mismatch = |a: &[f64], b: &[f64], sign: f64| {
