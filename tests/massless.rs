@@ -10,7 +10,6 @@
 //! ROM, 10 fixed-interface modes per nodal diameter on both components (the figures the
 //! README quotes); the comparison on converged ROMs is `python/benches/rom_convergence.py`.
 
-use realfft::RealFftPlanner;
 use rubscan::analysis::spectra::SpectrumAnalyzer;
 use rubscan::dynamics::abradable::CoatingMaterial;
 use rubscan::dynamics::low_pass::{BLADE_BAND_HZ, BesselLowPass};
@@ -19,6 +18,7 @@ use rubscan::dynamics::scenario::{CoatingCase, InitialVelocity, LobeLoad};
 use rubscan::model::build::{CasingSpec, ImpellerSpec};
 use rubscan::model::rom::CyclicRom;
 use rubscan::{Case, CasingModel, Numerics, SimulationOutput, casing_rom, impeller_rom, simulate};
+use rubscan_fft::RealFftPlanner64;
 use std::sync::OnceLock;
 
 const OMEGA: f64 = 3000.0;
@@ -508,7 +508,7 @@ fn coated_massless_formulation_converges_in_the_time_step_with_a_cutoff() {
 /// length, so the filter's tails do not wrap around) times `|H(f)|`, transformed back.
 fn zero_phase_peak(series: &[Vec<f64>], dt: f64, filter: &BesselLowPass) -> f64 {
     let n = 2 * series[0].len();
-    let mut planner = RealFftPlanner::<f64>::new();
+    let mut planner = RealFftPlanner64::new();
     let (forward, inverse) = (planner.plan_fft_forward(n), planner.plan_fft_inverse(n));
     let mut peak = 0.0f64;
     for x in series {

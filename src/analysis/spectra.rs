@@ -18,8 +18,8 @@
 //!   scalloping with the Hann kernel `W(δ) = sinc(δ) / (1 − δ²)`.
 //! - Resolution: two tones closer than ~4 bins (`4 / (n dt)` Hz) are not separated.
 
-use realfft::num_complex::Complex;
-use realfft::{RealFftPlanner, RealToComplex};
+use rubscan_fft::Complex;
+use rubscan_fft::{RealFftPlanner64, RealToComplex};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{PI, TAU};
 use std::sync::Arc;
@@ -123,7 +123,7 @@ impl SpectrumAnalyzer {
                 min: MIN_SAMPLES,
             });
         }
-        let plan = RealFftPlanner::<f64>::new().plan_fft_forward(n);
+        let plan = RealFftPlanner64::new().plan_fft_forward(n);
         Self::with_plan(plan)
     }
 

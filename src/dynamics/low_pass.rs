@@ -84,7 +84,7 @@ impl BesselLowPass {
 
     /// Gain `|H(e^{iωh})|` at frequency `f` (Hz) for the step `h` it was built for.
     pub fn gain(&self, f: f64, h: f64) -> f64 {
-        let z = realfft::num_complex::Complex64::from_polar(1.0, std::f64::consts::TAU * f * h);
+        let z = rubscan_fft::Complex64::from_polar(1.0, std::f64::consts::TAU * f * h);
         self.sections
             .iter()
             .map(|s| {
@@ -144,7 +144,7 @@ mod tests {
     /// Gain of the analog prototype at `f/band`, from its poles: the digital filter must be
     /// this filter up to the bilinear transform's warping.
     fn analog_gain(ratio: f64) -> f64 {
-        let s = realfft::num_complex::Complex64::new(0.0, ratio);
+        let s = rubscan_fft::Complex64::new(0.0, ratio);
         BESSEL4_POLES
             .iter()
             .map(|&(sigma, w)| (w * w / (s * s + 2.0 * sigma * s + w * w)).norm())

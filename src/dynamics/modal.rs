@@ -41,8 +41,8 @@ use crate::dynamics::structure::{NdBlock, Structure, StructureError};
 use crate::model::eigen::EigenError;
 use crate::simd::{self, Isa};
 use nalgebra::{DMatrix, DVector};
-use realfft::num_complex::Complex64;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use rubscan_fft::Complex64;
+use rubscan_fft::{ComplexToReal, RealFftPlanner64, RealToComplex};
 use std::sync::Arc;
 
 #[derive(Clone)]
@@ -170,7 +170,7 @@ impl ModalKernel {
         let st = &*st.discretized(h);
         let ns = st.n_sectors;
         let nb = st.n_boundary;
-        let mut planner = RealFftPlanner::<f64>::new();
+        let mut planner = RealFftPlanner64::new();
         let r2c = planner.plan_fft_forward(ns);
         let c2r = planner.plan_fft_inverse(ns);
         let nspec = ns / 2 + 1;
