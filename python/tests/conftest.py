@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
+import pyarrow as pa
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
@@ -43,3 +44,25 @@ def spec_dict(repo: Path, name: str) -> dict[str, Any]:
         if path.is_file():
             return json.loads(path.read_text())
     raise FileNotFoundError(name)
+
+
+def without_wall_time(table: pa.Table) -> pa.Table:
+    """The table without its wall-time columns, the only ones that differ between runs."""
+    return table.drop_columns([c for c in table.column_names if c.startswith("wall_time")])
+
+
+def ipc_bytes(table: pa.Table) -> bytes:
+    """The table's Arrow IPC stream: equal bytes mean equal schema, metadata and bits."""
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_stream(sink, table.schema) as writer:
+        writer.write_table(table)
+    return sink.getvalue().to_pybytes()
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The notebook (90 s of the two workers' ~170) starts first and the README snippet (30 s)
+    ends the list: pytest-xdist hands tests out in list order, and a worker holds the test
+    after the one it runs, so the README test right after the notebook ran after it on the same
+    worker while the other worker ran out of tests."""
+    order = {"test_the_example_notebook_runs": -1, "test_the_readme_python_snippet_runs": 1}
+    items.sort(key=lambda item: order.get(item.name, 0))

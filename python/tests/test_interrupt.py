@@ -16,9 +16,10 @@ from conftest import spec_dict
 
 
 def test_sigint_stops_the_sweep_and_keeps_finished_jobs(repo, tmp_path):
-    spec = spec_dict(repo, "quickstart")
-    # Eight jobs of about a second each on one worker: time to interrupt after the first.
-    spec["grid"]["speed"]["values"] = [1500 + 250 * i for i in range(8)]
+    # The small sweep's six jobs, of about half a second each on one worker: time to interrupt
+    # after the first.
+    spec = spec_dict(repo, "small_sweep")
+    n_jobs = len(spec["grid"]["speed"]["values"]) * len(spec["grid"]["friction"])
     spec_path = tmp_path / "scan.json"
     spec_path.write_text(json.dumps(spec))
     out = tmp_path / "out"
@@ -38,7 +39,7 @@ def test_sigint_stops_the_sweep_and_keeps_finished_jobs(repo, tmp_path):
     assert proc.returncode != 0 and "KeyboardInterrupt" in stderr, stderr
 
     kept = {p.name: p.read_bytes() for p in jobs.glob("*.json")}
-    assert 1 <= len(kept) < 8, f"{len(kept)} records after the interrupt"
+    assert 1 <= len(kept) < n_jobs, f"{len(kept)} records after the interrupt"
     table = rubscan.read_results(out)
     assert len(table) == len(kept) and set(table["status"]) == {"ok"}
     manifest = json.loads((out / "manifest.json").read_text())
@@ -46,7 +47,7 @@ def test_sigint_stops_the_sweep_and_keeps_finished_jobs(repo, tmp_path):
 
     calls: list[tuple[int, int, int]] = []
     resumed = rubscan.run(spec_path, output_dir=out, threads=2, progress=lambda *a: calls.append(a))
-    assert calls[-1][:2] == (8 - len(kept), 8 - len(kept)), calls[-1]
-    assert len(resumed) == 8 and set(resumed["status"]) == {"ok"}
+    assert calls[-1][:2] == (n_jobs - len(kept), n_jobs - len(kept)), calls[-1]
+    assert len(resumed) == n_jobs and set(resumed["status"]) == {"ok"}
     for name, before in kept.items():
         assert (jobs / name).read_bytes() == before, f"{name} was run again"
