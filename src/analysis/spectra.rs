@@ -18,8 +18,7 @@
 //!   scalloping with the Hann kernel `W(δ) = sinc(δ) / (1 − δ²)`.
 //! - Resolution: two tones closer than ~4 bins (`4 / (n dt)` Hz) are not separated.
 
-use rubscan_fft::Complex;
-use rubscan_fft::{RealFftPlanner64, RealToComplex};
+use rubscan_fft::{Complex, RealFftPlanner64, RealToComplex};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{PI, TAU};
 use std::sync::Arc;

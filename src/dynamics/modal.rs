@@ -41,8 +41,7 @@ use crate::dynamics::structure::{NdBlock, Structure, StructureError};
 use crate::model::eigen::EigenError;
 use crate::simd::{self, Isa};
 use nalgebra::{DMatrix, DVector};
-use rubscan_fft::Complex64;
-use rubscan_fft::{ComplexToReal, RealFftPlanner64, RealToComplex};
+use rubscan_fft::{Complex64, ComplexToReal, RealFftPlanner64, RealToComplex};
 use std::sync::Arc;
 
 #[derive(Clone)]
