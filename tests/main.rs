@@ -1,7 +1,7 @@
 //! rubscan's end-to-end tests, one module per behaviour (`cargo test --test integration
 //! <module>::` runs one, e.g. `rotor37::`). One test binary rather than one per file: each
 //! binary links the whole library and instantiates its own copy of the generic code it calls
-//! (faer, serde, arrow, rustfft), so 27 of them cost CI minutes of compiling and linking;
+//! (faer, serde, arrow), so 27 of them cost CI minutes of compiling and linking;
 //! `.ci/rust-tests` still runs the modules as separate processes, two at a time.
 //! `readers_never_panic.rs` is a binary of its own: its global allocator refuses large
 //! allocations, which the Rotor 37 full solve makes.
