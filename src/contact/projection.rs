@@ -415,6 +415,9 @@ pub struct GapBounds {
     /// Cumulative surface drift (m) and the control points it was last measured on.
     drift: f64,
     q_last: Vec<Vector3<f64>>,
+    /// The surface never moves (a rigid casing): its drift stays 0 without a scan of its
+    /// control points each step, which was a third of a rigid-casing step's time.
+    fixed_surface: bool,
     /// Patch lengths along `u` per radian swept counterclockwise about z (±N/2π, the sign
     /// from the order of the sectors).
     u_per_radian: f64,
@@ -437,11 +440,21 @@ impl GapBounds {
             drift_then: vec![0.0; n_nodes],
             drift: 0.0,
             q_last: Vec::new(),
+            fixed_surface: false,
             u_per_radian: 0.0,
             steps: 1,
             last_step: vec![0; n_nodes],
             trend: vec![None; n_nodes],
             far: Vec::with_capacity(n_nodes),
+        }
+    }
+
+    /// The same bounds for a surface whose control points never change (a rigid casing): every
+    /// call must then pass the control points of the first.
+    pub fn on_fixed_surface(self) -> Self {
+        Self {
+            fixed_surface: true,
+            ..self
         }
     }
 
@@ -494,7 +507,9 @@ impl GapBounds {
         check_lengths(xs.len(), warm.len(), out.len())?;
         check_lengths(xs.len(), self.gap.len(), out.len())?;
         if self.q_last.len() == q.len() {
-            self.drift += largest_move(Isa::selected(), &mut self.q_last, q);
+            if !self.fixed_surface {
+                self.drift += largest_move(Isa::selected(), &mut self.q_last, q);
+            }
         } else {
             // A new surface (first call): no earlier bound applies.
             self.q_last = q.to_vec();
@@ -1048,6 +1063,46 @@ mod tests {
                 assert_eq!(iterations, [1; 3], "step {step}");
             }
         }
+    }
+
+    #[test]
+    fn bounds_on_a_fixed_surface_skip_the_same_nodes_with_the_same_gaps() {
+        // Without its scan of the control points, the fixed-surface variant must still see the
+        // nodes move: the same nodes projected, with the same gaps, as the general bounds.
+        let c = cylinder();
+        let mut general = GapBounds::new(3);
+        let mut fixed = GapBounds::new(3).on_fixed_surface();
+        let (mut warm_g, mut warm_f) = (vec![None; 3], vec![None; 3]);
+        let (mut out_g, mut out_f) = (
+            vec![Projection::default(); 3],
+            vec![Projection::default(); 3],
+        );
+        let mut skipped = 0;
+        for step in 0..200 {
+            let s = step as f64;
+            let xs = three_nodes(|k| 0.002 * s + 2.0 * k as f64);
+            // Radial motion through the margin, so that nodes are skipped and taken up again.
+            let xs: Vec<Vector3<f64>> = (xs.iter().enumerate())
+                .map(|(k, x)| x * (1.0 + 0.033 * (0.05 * s + k as f64).sin().max(0.0)))
+                .collect();
+            let mut run =
+                |b: &mut GapBounds, warm: &mut [Option<SurfaceParam>], out: &mut [Projection]| {
+                    b.next_step();
+                    b.project_near(&c.sp, &c.q, &xs, warm, DEFAULT_EPS_NR, out, 2e-3, false)
+                        .unwrap()
+                };
+            let n_g = run(&mut general, &mut warm_g, &mut out_g);
+            let n_f = run(&mut fixed, &mut warm_f, &mut out_f);
+            assert_eq!(n_g, n_f, "step {step}: nodes projected");
+            skipped += 3 - n_g;
+            for (g, f) in out_g.iter().zip(&out_f) {
+                assert_eq!(g.gap.to_bits(), f.gap.to_bits(), "step {step}");
+            }
+        }
+        assert!(
+            skipped > 0,
+            "no node was ever skipped: the test saw no bound at work"
+        );
     }
 
     #[test]

@@ -280,8 +280,14 @@ impl<'a> Simulation<'a> {
             side.past.touched = vec![None; nn];
             side.fold_spline()?;
         }
+        let bounds = GapBounds::new(nn);
+        let rigid = casing.surface().is_some_and(|side| side.flexible.is_none());
         let projector = Projector {
-            bounds: GapBounds::new(nn),
+            bounds: if rigid {
+                bounds.on_fixed_surface()
+            } else {
+                bounds
+            },
             warm: vec![None; nn],
             proj: vec![Projection::default(); nn],
             eps: case.numerics.newton_tolerance,
