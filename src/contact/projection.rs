@@ -1085,7 +1085,7 @@ mod tests {
             let xs: Vec<Vector3<f64>> = (xs.iter().enumerate())
                 .map(|(k, x)| x * (1.0 + 0.033 * (0.05 * s + k as f64).sin().max(0.0)))
                 .collect();
-            let mut run =
+            let run =
                 |b: &mut GapBounds, warm: &mut [Option<SurfaceParam>], out: &mut [Projection]| {
                     b.next_step();
                     b.project_near(&c.sp, &c.q, &xs, warm, DEFAULT_EPS_NR, out, 2e-3, false)

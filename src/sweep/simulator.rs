@@ -633,13 +633,15 @@ mod tests {
 
     /// Jobs that take the casing's structure and side from the sweep's cache (built by the
     /// plan-time coating check on the rayon pool, then by the first job at a new step) run to
-    /// the bit as jobs that build their own. The quickstart, coated, 5 ms, at two speeds.
+    /// the bit as jobs that build their own. The quickstart, coated, its load ramped over 2 ms,
+    /// 3 ms, at two speeds.
     #[test]
     fn jobs_sharing_the_casing_run_as_jobs_building_their_own() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/sweeps/quickstart.json");
         let mut v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
-        v["scenario"]["duration_s"] = 5e-3.into();
+        v["scenario"]["duration_s"] = 3e-3.into();
+        v["scenario"]["load_ramp_s"] = 2e-3.into();
         v["scenario"]["coating"] = serde_json::json!({});
         v["grid"]["speed"]["values"] = serde_json::json!([2000, 3500]);
         let spec = crate::sweep::parse_spec(&v.to_string()).unwrap();
@@ -659,7 +661,8 @@ mod tests {
                     .unwrap();
             let own = Simulation::new(&case, &sim.impeller, &casing).unwrap();
             let (a, b) = (run(shared), run(own));
-            assert!(a.0.peaks.blade_radial() > 0.0 && a.0.coating.is_some());
+            let coating = a.0.coating.as_ref().expect("a coated run");
+            assert!(a.0.peaks.blade_radial() > 0.0 && coating.coating_steps > 0);
             assert_eq!(a, b, "Ω = {}", case.omega);
         }
         assert_eq!(sim.casing_cache.sides_kept(), 1);
