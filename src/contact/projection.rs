@@ -449,11 +449,11 @@ impl GapBounds {
         }
     }
 
-    /// The same bounds for a surface whose control points never change (a rigid casing): every
-    /// call must then pass the control points of the first.
-    pub fn on_fixed_surface(self) -> Self {
+    /// The same bounds, told whether the surface is `fixed` (a rigid casing): its control
+    /// points never change, so every call must then pass those of the first.
+    pub fn with_fixed_surface(self, fixed: bool) -> Self {
         Self {
-            fixed_surface: true,
+            fixed_surface: fixed,
             ..self
         }
     }
@@ -506,11 +506,7 @@ impl GapBounds {
     ) -> Result<usize, NodeProjectionError> {
         check_lengths(xs.len(), warm.len(), out.len())?;
         check_lengths(xs.len(), self.gap.len(), out.len())?;
-        if self.q_last.len() == q.len() {
-            if !self.fixed_surface {
-                self.drift += largest_move(Isa::selected(), &mut self.q_last, q);
-            }
-        } else {
+        if self.q_last.len() != q.len() {
             // A new surface (first call): no earlier bound applies.
             self.q_last = q.to_vec();
             self.gap.iter_mut().for_each(|g| *g = f64::NEG_INFINITY);
@@ -518,6 +514,8 @@ impl GapBounds {
             let ccw = p0.x * p1.y - p0.y * p1.x >= 0.0;
             let n = spline.n_sectors() as f64 / std::f64::consts::TAU;
             self.u_per_radian = if ccw { n } else { -n };
+        } else if !self.fixed_surface {
+            self.drift += largest_move(Isa::selected(), &mut self.q_last, q);
         }
         let mut projected = 0;
         let mut min_gap = f64::INFINITY;
@@ -1071,7 +1069,7 @@ mod tests {
         // nodes move: the same nodes projected, with the same gaps, as the general bounds.
         let c = cylinder();
         let mut general = GapBounds::new(3);
-        let mut fixed = GapBounds::new(3).on_fixed_surface();
+        let mut fixed = GapBounds::new(3).with_fixed_surface(true);
         let (mut warm_g, mut warm_f) = (vec![None; 3], vec![None; 3]);
         let (mut out_g, mut out_f) = (
             vec![Projection::default(); 3],

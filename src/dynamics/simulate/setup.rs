@@ -280,14 +280,9 @@ impl<'a> Simulation<'a> {
             side.past.touched = vec![None; nn];
             side.fold_spline()?;
         }
-        let bounds = GapBounds::new(nn);
         let rigid = casing.surface().is_some_and(|side| side.flexible.is_none());
         let projector = Projector {
-            bounds: if rigid {
-                bounds.on_fixed_surface()
-            } else {
-                bounds
-            },
+            bounds: GapBounds::new(nn).with_fixed_surface(rigid),
             warm: vec![None; nn],
             proj: vec![Projection::default(); nn],
             eps: case.numerics.newton_tolerance,
