@@ -211,6 +211,47 @@ impl ControlFlexTable {
         simd::compiled_for(self.isa, |isa| self.pair_block_impl(isa, k, l))
     }
 
+    /// The flexibility from the load point of weights `l` to every point of the patch of
+    /// `patch` (its column `i` and meridian rows `row..row+4`), contracted over all but the
+    /// patch point's own weights ([`PatchFlexibility`]): the same sums as
+    /// [`ControlFlexTable::weighted_pair_block`], with the patch point's weights taken last.
+    pub fn patch_flexibility(
+        &self,
+        patch: &ControlWeights,
+        l: &ControlWeights,
+    ) -> PatchFlexibility {
+        let (n, st) = (self.n, self.m.max(4));
+        // Per α − β = δ − 3 and patch row a: Σ_b w^l_b T_d(row + a, row_l + b), d the class
+        // offset i − i_l + δ − 3 (wrapped), entries as the table's (column-major 3×3).
+        let mut meridian = [[[0.0f64; 12]; 4]; 7];
+        for (delta, rows) in meridian.iter_mut().enumerate() {
+            let d = (patch.i + n * 4 + delta - 3 - l.i) % n;
+            for (a, sums) in rows.iter_mut().enumerate() {
+                for (e, sum) in sums.iter_mut().take(9).enumerate() {
+                    *sum = (0..4)
+                        .map(|b| {
+                            l.w[b] * self.flat[table_index(st, d, e, (patch.row + a, l.row + b))]
+                        })
+                        .sum();
+                }
+            }
+        }
+        let mut m = [[Matrix3::zeros(); 4]; 4];
+        for beta in 0..4 {
+            let clb = (l.i + beta + n - 1) % n;
+            for (alpha, m) in m.iter_mut().enumerate() {
+                for (a, m) in m.iter_mut().enumerate() {
+                    *m += rotate_about_z(self.cs[clb], &meridian[alpha + 3 - beta][a]) * l.u[beta];
+                }
+            }
+        }
+        PatchFlexibility {
+            i: patch.i,
+            row: patch.row,
+            m,
+        }
+    }
+
     /// [`ControlFlexTable::weighted_pair_block`] on the path `isa`.
     #[inline(always)]
     fn pair_block_impl(&self, isa: Isa, k: &ControlWeights, l: &ControlWeights) -> Matrix3<f64> {
@@ -300,6 +341,42 @@ pub struct ControlWeights {
     u: [f64; 4],
     row: usize,
     w: [f64; 4],
+}
+
+/// The casing's flexibility from one load point `p_l` to the points `p` of one surface patch
+/// (m/N, global): `V(p, p_l) = Σ_α Σ_a u_α(p) w_a(p) M[α][a]` over the patch point's four
+/// circumferential and four meridian weights ([`ControlWeights`]), eq. (18) with everything
+/// but those weights contracted ([`ControlFlexTable::patch_flexibility`], ~3.6k flops). A
+/// block then costs 16 multiply-adds of 3×3 blocks where
+/// [`ControlFlexTable::weighted_pair_block`] takes ~2.4k flops, and so do its slopes along
+/// the surface (the weights of [`ControlFlexTable::weights_of`]): box 4b takes a
+/// candidate's blocks again whenever its closest point moves, many times per step against
+/// the same load points, nearly always on the same patch.
+#[derive(Clone, Debug)]
+pub struct PatchFlexibility {
+    i: usize,
+    row: usize,
+    m: [[Matrix3<f64>; 4]; 4],
+}
+
+impl PatchFlexibility {
+    /// Whether the point of weights `p` lies on this patch.
+    pub fn covers(&self, p: &ControlWeights) -> bool {
+        p.i == self.i && p.row == self.row
+    }
+
+    /// `V(p, p_l)` (m/N) for the weights `p` of a point on this patch (or of its tangent,
+    /// for a slope); `None` off the patch.
+    pub fn block(&self, p: &ControlWeights) -> Option<Matrix3<f64>> {
+        self.covers(p).then(|| {
+            let mut out = Matrix3::zeros();
+            for (m, u) in self.m.iter().zip(p.u) {
+                let along: Matrix3<f64> = m.iter().zip(p.w).map(|(m, w)| m * w).sum();
+                out += along * u;
+            }
+            out
+        })
+    }
 }
 
 /// Index in [`ControlFlexTable`]'s `flat` of entry `e` of the 3×3 block of class offset `d`
@@ -832,6 +909,50 @@ mod tests {
                     (got - want).norm() <= 1e-7 * want.norm(),
                     "at {at:?}: {got} vs {want}"
                 );
+            }
+        }
+    }
+
+    /// A patch's flexibility gives the pair blocks and their slopes of every point of the
+    /// patch, to round-off, on the edges and the seam's patch too (the table's own
+    /// contraction, [`ControlFlexTable::weighted_pair_block`], is the reference), and refuses
+    /// the points of another patch.
+    #[test]
+    fn patch_flexibility_gives_the_pair_blocks_and_slopes_of_its_patch() {
+        use crate::contact::{Along, SurfaceParam};
+        use crate::dynamics::modal::ModalKernel;
+        use crate::dynamics::structure::Structure;
+        use crate::fixtures::{SyntheticSpec, synthetic_rom};
+        use crate::model::rom::Component;
+        let rom = synthetic_rom(&SyntheticSpec::small(Component::Casing, 8, 5, 2));
+        let st = Structure::new(&rom, 0.0).unwrap();
+        let spline = CasingSpline::new(8, 5).unwrap();
+        let mut k = ModalKernel::new(&st, 0.2 * st.stability_limit()).unwrap();
+        let tab = ControlFlexTable::build(&mut k, &spline);
+        let p = |i, j, u, v| SurfaceParam { i, j, u, v };
+        let loads = [p(3, 2, 0.3, 0.8), p(7, 0, 0.9, 0.0), p(0, 3, 0.5, 1.0)];
+        let patches = [p(2, 2, 0.4, 1.0), p(7, 0, 0.7, 0.0), p(0, 1, 0.5, 0.5)];
+        for load in &loads {
+            let wl = tab.weights(load);
+            for patch in &patches {
+                let flex = tab.patch_flexibility(&tab.weights(patch), &wl);
+                for (u, v) in [(0.0, 0.0), (0.3, 0.7), (1.0, 1.0), (patch.u, patch.v)] {
+                    let at = SurfaceParam { u, v, ..*patch };
+                    for along in [Along::Point, Along::U, Along::V] {
+                        let w = tab.weights_of(along, &at);
+                        let want = tab.weighted_pair_block(&w, &wl);
+                        let got = flex.block(&w).expect("a point of the patch");
+                        assert!(
+                            (got - want).norm() <= 1e-12 * want.norm(),
+                            "{along:?} at {at:?} against {load:?}: {got} vs {want}"
+                        );
+                    }
+                }
+                let other = SurfaceParam {
+                    i: (patch.i + 1) % 8,
+                    ..*patch
+                };
+                assert_eq!(flex.block(&tab.weights(&other)), None);
             }
         }
     }

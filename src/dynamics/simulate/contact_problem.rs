@@ -203,7 +203,8 @@ pub(super) fn casing_blocks_at(
             let at = table.weights(&c.phat[k]);
             for l in 0..nk {
                 if c.lambda[l] != 0.0 && c.vhat[k * nk + l].is_none() {
-                    c.vhat[k * nk + l] = Some(table.weighted_pair_block(&at, &c.weights[l]));
+                    let [v] = c.patch_blocks(table, (k, l), [&at]);
+                    c.vhat[k * nk + l] = Some(v);
                 }
             }
         }
@@ -266,6 +267,10 @@ pub(super) struct ContactProblem {
     /// Their slopes along the surface at `p̂_k`, `∂V(p̂_k, p_l)/∂u` and `/∂v`, where candidate
     /// k overhangs a free edge (see `free_edge`).
     pub(super) vslope: Vec<Option<[Matrix3<f64>; 2]>>,
+    /// The flexibility from load point l to the patch where candidate k's blocks were last
+    /// taken (fast kernel, [`PatchFlexibility`]), kept while the load points stay (a step):
+    /// box 4b's blocks and slopes on that patch come from it.
+    pub(super) patch: Vec<Option<PatchFlexibility>>,
     /// `p̂_k` of each candidate, whether its blocks are taken there, and whether it was
     /// found open with a margin (box 4b).
     pub(super) phat: Vec<SurfaceParam>,
@@ -323,6 +328,7 @@ impl ContactProblem {
             weights: vec![ControlWeights::default(); nn],
             vhat: vec![None; nn * nn],
             vslope: vec![None; nn * nn],
+            patch: vec![None; nn * nn],
             blocks_taken: vec![false; nn],
             local: vec![LocalSurface::default(); nn],
             translation_rate: vec![0.0; nn],
@@ -352,6 +358,28 @@ impl ContactProblem {
     /// Whether candidate `k` presses a coating element (massless boundary).
     pub(super) fn on_coating(&self, k: usize) -> bool {
         self.laws.get(k).is_some_and(Option::is_some)
+    }
+
+    /// The blocks `V(p, p_l)` (m/N, global) of the points (or tangents) of weights `at`, all
+    /// on one patch, against load point l, from candidate k's [`PatchFlexibility`] for l,
+    /// built first (or again) if it is of another patch.
+    pub(super) fn patch_blocks<const N: usize>(
+        &mut self,
+        table: &ControlFlexTable,
+        (k, l): (usize, usize),
+        at: [&ControlWeights; N],
+    ) -> [Matrix3<f64>; N] {
+        let nk = self.cands.len();
+        let slot = &mut self.patch[k * nk + l];
+        if !slot.as_ref().is_some_and(|p| p.covers(at[0])) {
+            *slot = Some(table.patch_flexibility(at[0], &self.weights[l]));
+        }
+        let patch = slot.as_ref();
+        at.map(|w| {
+            patch
+                .and_then(|p| p.block(w))
+                .unwrap_or_else(|| table.weighted_pair_block(w, &self.weights[l]))
+        })
     }
 
     /// The multipliers of eq. (18) for the first `nk` candidates, gaps `d` and matrix `w`,
@@ -431,6 +459,7 @@ pub(super) fn casing_w(
             for (weights, cd) in c.weights.iter_mut().zip(&c.cands) {
                 *weights = table.weights(&cd.param);
             }
+            c.patch[..nk * nk].fill(None);
             for (k, a) in c.cands.iter().enumerate() {
                 for (l, b) in c.cands.iter().enumerate().skip(k) {
                     let v = table.weighted_pair_block(&c.weights[k], &c.weights[l]);

@@ -176,8 +176,7 @@ fn slopes_at(
             let (at_u, at_v) = (table.weights_of(Along::U, p), table.weights_of(Along::V, p));
             for l in 0..nk {
                 if missing(c, l) {
-                    let wl = &c.weights[l];
-                    let pair = [&at_u, &at_v].map(|at| table.weighted_pair_block(at, wl));
+                    let pair = c.patch_blocks(table, (k, l), [&at_u, &at_v]);
                     c.vslope[k * nk + l] = Some(pair);
                 }
             }

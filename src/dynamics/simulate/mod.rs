@@ -21,7 +21,8 @@ use crate::contact::{
 };
 use crate::dynamics::abradable::{AbradableError, CoatingLaw, CoatingLayer, ElementUpdate};
 use crate::dynamics::contact_solve::{
-    CoatedBuffers, ControlFlexTable, ControlWeights, NodeFlexTable, active_set_solve, coated_solve,
+    CoatedBuffers, ControlFlexTable, ControlWeights, NodeFlexTable, PatchFlexibility,
+    active_set_solve, coated_solve,
 };
 use crate::dynamics::dense::DenseKernel;
 use crate::dynamics::imposed_casing::ImposedCasing;
