@@ -346,7 +346,7 @@ pub struct ControlWeights {
 /// The casing's flexibility from one load point `p_l` to the points `p` of one surface patch
 /// (m/N, global): `V(p, p_l) = Σ_α Σ_a u_α(p) w_a(p) M[α][a]` over the patch point's four
 /// circumferential and four meridian weights ([`ControlWeights`]), eq. (18) with everything
-/// but those weights contracted ([`ControlFlexTable::patch_flexibility`], ~3.6k flops). A
+/// but those weights contracted ([`ControlFlexTable::patch_flexibility`], ~5k flops). A
 /// block then costs 16 multiply-adds of 3×3 blocks where
 /// [`ControlFlexTable::weighted_pair_block`] takes ~2.4k flops, and so do its slopes along
 /// the surface (the weights of [`ControlFlexTable::weights_of`]): box 4b takes a

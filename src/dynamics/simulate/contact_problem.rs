@@ -375,6 +375,7 @@ impl ContactProblem {
             *slot = Some(table.patch_flexibility(at[0], &self.weights[l]));
         }
         let patch = slot.as_ref();
+        // A point's tangents share its patch; another patch's point takes the table's sums.
         at.map(|w| {
             patch
                 .and_then(|p| p.block(w))
