@@ -248,6 +248,7 @@ impl ControlFlexTable {
         PatchFlexibility {
             i: patch.i,
             row: patch.row,
+            load: *l,
             m,
         }
     }
@@ -356,10 +357,17 @@ pub struct ControlWeights {
 pub struct PatchFlexibility {
     i: usize,
     row: usize,
+    load: ControlWeights,
     m: [[Matrix3<f64>; 4]; 4],
 }
 
 impl PatchFlexibility {
+    /// Whether this is the flexibility from the load point of weights `load` to the patch of
+    /// the point of weights `p`: what [`ControlFlexTable::patch_flexibility`] would build.
+    pub fn is_for(&self, p: &ControlWeights, load: &ControlWeights) -> bool {
+        self.covers(p) && self.load == *load
+    }
+
     /// Whether the point of weights `p` lies on this patch.
     pub fn covers(&self, p: &ControlWeights) -> bool {
         p.i == self.i && p.row == self.row

@@ -268,8 +268,8 @@ pub(super) struct ContactProblem {
     /// k overhangs a free edge (see `free_edge`).
     pub(super) vslope: Vec<Option<[Matrix3<f64>; 2]>>,
     /// The flexibility from load point l to the patch where candidate k's blocks were last
-    /// taken (fast kernel, [`PatchFlexibility`]), kept while the load points stay (a step):
-    /// box 4b's blocks and slopes on that patch come from it.
+    /// taken (fast kernel, [`PatchFlexibility`]): box 4b's blocks and slopes on that patch
+    /// come from it while it is for that patch and load point (in practice, one step).
     pub(super) patch: Vec<Option<PatchFlexibility>>,
     /// `p̂_k` of each candidate, whether its blocks are taken there, and whether it was
     /// found open with a margin (box 4b).
@@ -370,16 +370,16 @@ impl ContactProblem {
         at: [&ControlWeights; N],
     ) -> [Matrix3<f64>; N] {
         let nk = self.cands.len();
-        let slot = &mut self.patch[k * nk + l];
-        if !slot.as_ref().is_some_and(|p| p.covers(at[0])) {
-            *slot = Some(table.patch_flexibility(at[0], &self.weights[l]));
+        let (slot, load) = (&mut self.patch[k * nk + l], &self.weights[l]);
+        if !slot.as_ref().is_some_and(|p| p.is_for(at[0], load)) {
+            *slot = Some(table.patch_flexibility(at[0], load));
         }
         let patch = slot.as_ref();
         // A point's tangents share its patch; another patch's point takes the table's sums.
         at.map(|w| {
             patch
                 .and_then(|p| p.block(w))
-                .unwrap_or_else(|| table.weighted_pair_block(w, &self.weights[l]))
+                .unwrap_or_else(|| table.weighted_pair_block(w, load))
         })
     }
 
@@ -460,7 +460,6 @@ pub(super) fn casing_w(
             for (weights, cd) in c.weights.iter_mut().zip(&c.cands) {
                 *weights = table.weights(&cd.param);
             }
-            c.patch[..nk * nk].fill(None);
             for (k, a) in c.cands.iter().enumerate() {
                 for (l, b) in c.cands.iter().enumerate().skip(k) {
                     let v = table.weighted_pair_block(&c.weights[k], &c.weights[l]);
