@@ -1,7 +1,9 @@
 # Sourced by .ci/run and .ci/test (after `set -euo pipefail`): `step <name> <command…>` runs a
 # command, echoes its name and appends its wall time to a table that the outermost script
 # prints when it exits, also on failure (the failing step marked). Nested scripts add their
-# steps to their caller's table.
+# steps to their caller's table. `step_in_background <name> <command…>` starts a step beside
+# the ones that follow (its output kept in target/, printed when it ends) and
+# `wait_for_background_step` waits for it, recording its wall time and failing if it failed.
 ci_step_name=""
 if [ -z "${RUBSCAN_CI_STEPS:-}" ]; then
   export RUBSCAN_CI_STEPS="$PWD/target/ci-steps.tsv"
@@ -13,6 +15,9 @@ ci_started=$(date +%s)
 
 ci_on_exit() {
   local rc=$?
+  if [ -n "${ci_background_pid:-}" ]; then
+    kill "$ci_background_pid" 2>/dev/null || true
+  fi
   if [ -n "$ci_step_name" ]; then
     printf '%s\t%d\tFAILED\n' "$ci_step_name" "$(( $(date +%s) - ci_step_t0 ))" >> "$RUBSCAN_CI_STEPS"
   fi
@@ -34,4 +39,28 @@ step() {
   "$@"
   printf '%s\t%d\n' "$ci_step_name" "$(( $(date +%s) - ci_step_t0 ))" >> "$RUBSCAN_CI_STEPS"
   ci_step_name=""
+}
+
+ci_background_pid=""
+step_in_background() {
+  ci_background_name=$1
+  shift
+  ci_background_log="$PWD/target/ci-background-step.log"
+  echo "== $ci_background_name (in the background, output in $ci_background_log)"
+  ci_background_t0=$(date +%s)
+  "$@" > "$ci_background_log" 2>&1 &
+  ci_background_pid=$!
+}
+
+wait_for_background_step() {
+  local rc=0
+  wait "$ci_background_pid" || rc=$?
+  ci_background_pid=""
+  echo "== $ci_background_name: its output"
+  cat "$ci_background_log"
+  local status=""
+  [ "$rc" -eq 0 ] || status="FAILED"
+  printf '%s\t%d\t%s\n' "$ci_background_name (beside the next steps)" \
+    "$(( $(date +%s) - ci_background_t0 ))" "$status" >> "$RUBSCAN_CI_STEPS"
+  return "$rc"
 }
