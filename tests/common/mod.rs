@@ -75,8 +75,9 @@ pub fn skip_or_fail(test: &str, why: &str) {
 /// The output folder of the README's main job, `rubscan run sweeps/quickstart.json --threads 2`,
 /// run once per build of the binary under test and shared by every test process of a `cargo
 /// test` run instead of once in each: kept under `CARGO_TARGET_TMPDIR`, keyed by the binary's
-/// size and modification time and by the spec's text, and made whole by a rename. Read it; write
-/// nothing into it (a report goes elsewhere with `-o`).
+/// size and modification time and by the spec's text, and made whole by a rename. A lock file
+/// beside it makes a process that needs it while another runs it wait for that run instead of
+/// running it too. Read it; write nothing into it (a report goes elsewhere with `-o`).
 pub fn quickstart_output() -> &'static Path {
     static OUT: OnceLock<PathBuf> = OnceLock::new();
     OUT.get_or_init(|| {
@@ -88,6 +89,9 @@ pub fn quickstart_output() -> &'static Path {
         std::fs::read(&spec).unwrap().hash(&mut key);
         let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
             .join(format!("quickstart-{:016x}", key.finish()));
+        // Released when the file is closed, at the end of this block.
+        let lock = std::fs::File::create(dir.with_extension("lock")).unwrap();
+        lock.lock().unwrap();
         if !dir.join("results.parquet").is_file() {
             let part = dir.with_extension(format!("part{}", std::process::id()));
             let _ = std::fs::remove_dir_all(&part);
@@ -101,11 +105,7 @@ pub fn quickstart_output() -> &'static Path {
                 "the quickstart failed: {}",
                 stderr(&run)
             );
-            // Another test process running beside this one may have finished first: keep its.
-            if std::fs::rename(&part, &dir).is_err() {
-                assert!(dir.join("results.parquet").is_file(), "{}", dir.display());
-                let _ = std::fs::remove_dir_all(&part);
-            }
+            std::fs::rename(&part, &dir).unwrap();
         }
         dir
     })
