@@ -3,7 +3,7 @@
 # prints when it exits, also on failure (the failing step marked). Nested scripts add their
 # steps to their caller's table. `step_in_background <name> <command…>` starts a step beside
 # the ones that follow (its output kept in target/, printed when it ends) and
-# `wait_for_background_step` waits for it, recording its wall time and failing if it failed.
+# `wait_for_background_step` waits for it, recording its own wall time and failing if it failed.
 ci_step_name=""
 if [ -z "${RUBSCAN_CI_STEPS:-}" ]; then
   export RUBSCAN_CI_STEPS="$PWD/target/ci-steps.tsv"
@@ -47,8 +47,10 @@ step_in_background() {
   shift
   ci_background_log="$PWD/target/ci-background-step.log"
   echo "== $ci_background_name (in the background, output in $ci_background_log)"
+  rm -f "$ci_background_log.end"
   ci_background_t0=$(date +%s)
-  "$@" > "$ci_background_log" 2>&1 &
+  ( rc=0; "$@" || rc=$?; date +%s > "$ci_background_log.end"; exit "$rc" ) \
+    > "$ci_background_log" 2>&1 &
   ci_background_pid=$!
 }
 
@@ -60,7 +62,9 @@ wait_for_background_step() {
   cat "$ci_background_log"
   local status=""
   [ "$rc" -eq 0 ] || status="FAILED"
+  local end
+  end=$(cat "$ci_background_log.end" 2>/dev/null || date +%s)
   printf '%s\t%d\t%s\n' "$ci_background_name (beside the next steps)" \
-    "$(( $(date +%s) - ci_background_t0 ))" "$status" >> "$RUBSCAN_CI_STEPS"
+    "$(( end - ci_background_t0 ))" "$status" >> "$RUBSCAN_CI_STEPS"
   return "$rc"
 }
