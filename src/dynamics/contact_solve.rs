@@ -211,6 +211,11 @@ impl ControlFlexTable {
         simd::compiled_for(self.isa, |isa| self.pair_block_impl(isa, k, l))
     }
 
+    /// Rows per side of a block of `flat`, `S = max(M, 4)`.
+    fn side(&self) -> usize {
+        self.m.max(4)
+    }
+
     /// The flexibility from the load point of weights `l` to every point of the patch of
     /// `patch` (its column `i` and meridian rows `row..row+4`), contracted over all but the
     /// patch point's own weights ([`PatchFlexibility`]): the same sums as
@@ -220,7 +225,7 @@ impl ControlFlexTable {
         patch: &ControlWeights,
         l: &ControlWeights,
     ) -> PatchFlexibility {
-        let (n, st) = (self.n, self.m.max(4));
+        let (n, st) = (self.n, self.side());
         // Per α − β = δ − 3 and patch row a: Σ_b w^l_b T_d(row + a, row_l + b), d the class
         // offset i − i_l + δ − 3 (wrapped), entries as the table's (column-major 3×3).
         let mut meridian = [[[0.0f64; 12]; 4]; 7];
@@ -256,8 +261,8 @@ impl ControlFlexTable {
     /// [`ControlFlexTable::weighted_pair_block`] on the path `isa`.
     #[inline(always)]
     fn pair_block_impl(&self, isa: Isa, k: &ControlWeights, l: &ControlWeights) -> Matrix3<f64> {
-        let (n, m) = (self.n, self.m);
-        let st = m.max(4);
+        let n = self.n;
+        let st = self.side();
         let (uk, ul) = (&k.u, &l.u);
         let (sk, wk) = (k.row, &k.w);
         let (sl, wl) = (l.row, &l.w);
@@ -312,9 +317,9 @@ impl ControlFlexTable {
         let mut acc = 0.0;
         for (r1, w1) in self.real_rows(ka) {
             for (r2, w2) in self.real_rows(kb) {
-                let st = self.m.max(4);
-                let t =
-                    Matrix3::from_fn(|d1, d2| self.flat[table_index(st, d, d1 + 3 * d2, (r1, r2))]);
+                let t = Matrix3::from_fn(|d1, d2| {
+                    self.flat[table_index(self.side(), d, d1 + 3 * d2, (r1, r2))]
+                });
                 acc += w1 * w2 * nl.dot(&(t * fl));
             }
         }
