@@ -226,6 +226,7 @@ pub fn synthetic_rom(spec: &SyntheticSpec) -> CyclicRom {
         damping: spec.damping,
         provenance: serde_json::json!({"synthetic": true}),
         recovery: Default::default(),
+        blade_modes: Default::default(),
     }
 }
 

@@ -569,6 +569,7 @@ fn small_rom() -> rubscan::model::rom::CyclicRom {
         },
         provenance: json!({"test": "readers_never_panic"}),
         recovery: Default::default(),
+        blade_modes: Default::default(),
     }
 }
 

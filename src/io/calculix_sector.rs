@@ -131,7 +131,11 @@ pub fn import_calculix_sector(spec: &CalculixSectorSpec) -> Result<CyclicRom, Im
     let mut rom = reduce_sector(
         spec.component,
         &sector.mesh,
-        (spec.modes_per_diameter, grid),
+        crate::model::build::SectorReduction {
+            modes_per_diameter: spec.modes_per_diameter,
+            omega_grid: grid,
+            blade_modes: 0,
+        },
         spec.prestress,
         spec.damping,
         spec.name.clone(),
@@ -242,6 +246,7 @@ pub fn read_sector(spec: &CalculixSectorSpec) -> Result<ImportedSector, ImportEr
         clamped_nodes: clamped,
         material,
         named_nodes,
+        blade_elements: vec![],
     };
     mesh.validate().map_err(|e| bad(e.to_string()))?;
     Ok(ImportedSector {

@@ -16,8 +16,9 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::model::rom::{
-    ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix,
-    ModalData, ROM_FORMAT_OLDEST_READ, ROM_FORMAT_VERSION, Recovery, RecoveryNode, RomError,
+    BladeModes, ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock,
+    HermitianMatrix, ModalData, ROM_FORMAT_OLDEST_READ, ROM_FORMAT_VERSION, Recovery, RecoveryNode,
+    RomError,
 };
 
 /// Value of the `format` metadata key.
@@ -91,6 +92,13 @@ struct RomMeta {
     /// documented nodes of a built-in model have names).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     recovery_node_names: Vec<Option<String>>,
+    /// Number of blade modes for mistuning (absent: none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    blade_mode_count: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 const MATRIX_NAMES: [&str; 4] = ["mass", "k0", "k1", "k2"];
@@ -158,6 +166,23 @@ pub fn to_bytes(rom: &CyclicRom) -> Result<Vec<u8>, safetensors::SafeTensorError
             }
         }
     }
+    let blade = &rom.blade_modes;
+    if !blade.omega2.is_empty() {
+        push(
+            "blade_modes.omega2".into(),
+            vec![blade.omega2.len()],
+            &mut blade.omega2.iter().copied(),
+        );
+        for (k, b) in blade.rows.iter().enumerate() {
+            for (part, d) in [("re", &b.re), ("im", &b.im)] {
+                push(
+                    format!("blade_modes.{k}.{part}"),
+                    vec![d.nrows(), d.ncols()],
+                    &mut row_major(d),
+                );
+            }
+        }
+    }
     for (k, md) in rom.modal_data.iter().enumerate() {
         let n_omega = md.omega.len();
         let n_p = md.frequencies.first().map_or(0, Vec::len);
@@ -198,6 +223,7 @@ pub fn to_bytes(rom: &CyclicRom) -> Result<Vec<u8>, safetensors::SafeTensorError
         } else {
             vec![]
         },
+        blade_mode_count: blade.omega2.len(),
     };
     let info = HashMap::from([
         ("format".to_string(), FORMAT_NAME.to_string()),
@@ -360,6 +386,7 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
         });
     }
     let recovery = read_recovery(&meta, &harmonics, &tensor, path)?;
+    let blade_modes = read_blade_modes(meta.blade_mode_count, &harmonics, &tensor)?;
     let mut modal_data = Vec::with_capacity(meta.modal_omega_count.len());
     for (k, &n_omega) in meta.modal_omega_count.iter().enumerate() {
         let omega = tensor(&format!("modal.{k}.omega"), &[n_omega])?;
@@ -402,6 +429,7 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<CyclicRom, RomFileError> 
         damping: meta.damping,
         provenance: meta.provenance,
         recovery,
+        blade_modes: Box::new(blade_modes),
     };
     rom.validate().map_err(|source| RomFileError::Invalid {
         path: path.into(),
@@ -464,6 +492,35 @@ fn read_recovery(
         })
         .collect::<Result<_, RomFileError>>()?;
     Ok(Recovery { nodes, rows })
+}
+
+/// The blade modes of a file: `blade_modes.omega2` and one `blade_modes.{k}.{re,im}` block of
+/// `n_bm × (3 n_c + n_m(k))` per harmonic (none when the metadata counts none).
+fn read_blade_modes(
+    count: usize,
+    harmonics: &[HarmonicBlock],
+    tensor: &TensorReader<'_>,
+) -> Result<BladeModes, RomFileError> {
+    if count == 0 {
+        return Ok(BladeModes::default());
+    }
+    let omega2 = tensor("blade_modes.omega2", &[count])?;
+    let rows = harmonics
+        .iter()
+        .enumerate()
+        .map(|(k, h)| {
+            let n = h.mass.size();
+            let part = |p: &str| {
+                tensor(&format!("blade_modes.{k}.{p}"), &[count, n])
+                    .map(|v| DMatrix::from_row_slice(count, n, &v))
+            };
+            Ok(ComplexRows {
+                re: part("re")?,
+                im: part("im")?,
+            })
+        })
+        .collect::<Result<_, RomFileError>>()?;
+    Ok(BladeModes { omega2, rows })
 }
 
 #[cfg(test)]
@@ -537,6 +594,7 @@ mod tests {
             },
             provenance: serde_json::json!({"test": true}),
             recovery: Default::default(),
+            blade_modes: Default::default(),
         }
     }
 
@@ -619,6 +677,39 @@ mod tests {
             err.starts_with("w.rom:") && err.contains("recovery.1.re"),
             "{err}"
         );
+    }
+
+    /// Blade shapes for mistuning survive the file; a block of the wrong width is named, and
+    /// a file without them reads as a model without blade shapes.
+    #[test]
+    fn blade_modes_round_trip() {
+        let mut rom = sample_rom_with_recovery();
+        *rom.blade_modes = BladeModes {
+            omega2: vec![4e8, 9e8],
+            rows: rom
+                .harmonics
+                .iter()
+                .enumerate()
+                .map(|(k, h)| {
+                    let n = h.mass.size();
+                    let real = crate::model::cyclic::is_real_harmonic(k, rom.n_sectors);
+                    ComplexRows {
+                        re: DMatrix::from_fn(2, n, |i, j| (i + 2 * j + k) as f64),
+                        im: DMatrix::from_fn(2, n, |i, j| if real { 0.0 } else { (i * j) as f64 }),
+                    }
+                })
+                .collect(),
+        };
+        assert_eq!(rom.validate(), Ok(()));
+        let back = from_bytes(&to_bytes(&rom).unwrap(), Path::new("b.rom")).unwrap();
+        assert_eq!(back, rom);
+        let mut bad = rom.clone();
+        bad.blade_modes.rows[1].im = DMatrix::zeros(2, 3);
+        let err = error_reading(&bad, "w.rom");
+        assert!(err.contains("blade_modes.1.im"), "{err}");
+        let plain = sample_rom_with_recovery();
+        let back = from_bytes(&to_bytes(&plain).unwrap(), Path::new("p.rom")).unwrap();
+        assert!(back.blade_modes.omega2.is_empty());
     }
 
     #[test]

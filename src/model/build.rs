@@ -4,7 +4,9 @@
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use crate::model::fe::{FeError, assemble_sector, initial_displacement_stiffness};
+use crate::model::fe::{
+    FeError, assemble_element_set, assemble_sector, initial_displacement_stiffness,
+};
 use crate::model::mesh::{CasingGeometry, ImpellerGeometry, MeshError, SectorMesh};
 use crate::model::reduction::{ReductionError, ReductionOptions, reduce_cyclic};
 use crate::model::rom::{Component, CyclicRom, Damping};
@@ -87,6 +89,14 @@ pub struct ImpellerSpec {
     pub prestress: Prestress,
     /// Damping stored in the ROM.
     pub damping: Damping,
+    /// Blade modes kept for structural mistuning ([`crate::model::rom::BladeModes`]): 0 (the
+    /// default, not written, so that a tuned model keeps its identity) keeps none.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub blade_modes: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl Default for ImpellerSpec {
@@ -99,6 +109,7 @@ impl Default for ImpellerSpec {
             omega_grid_rad_s: (0..=14).map(|i| 500.0 * i as f64).collect(),
             prestress: Prestress::default(),
             damping: Damping::default(),
+            blade_modes: 0,
         }
     }
 }
@@ -147,6 +158,17 @@ impl Prestress {
     }
 }
 
+/// How [`reduce_sector`] reduces a sector.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SectorReduction {
+    /// Fixed-interface modes per nodal diameter.
+    pub modes_per_diameter: usize,
+    /// Rotation speeds (rad/s) of the modal data.
+    pub omega_grid: Vec<f64>,
+    /// Blade modes kept for structural mistuning (0: none; [`crate::model::rom::BladeModes`]).
+    pub blade_modes: usize,
+}
+
 /// Assembles a sector mesh and reduces it (cyclic Craig–Bampton, `modes_per_diameter`
 /// fixed-interface modes per nodal diameter, modal data at every speed of `omega_grid`, rad/s;
 /// the impeller's K(Ω) from its centrifugal prestate, as `prestress` says): the shared tail of
@@ -154,7 +176,7 @@ impl Prestress {
 pub fn reduce_sector(
     component: Component,
     mesh: &SectorMesh,
-    (modes_per_diameter, omega_grid): (usize, Vec<f64>),
+    reduction: SectorReduction,
     prestress: Prestress,
     damping: Damping,
     name: String,
@@ -163,9 +185,19 @@ pub fn reduce_sector(
         Component::Casing => ("casing", false),
         Component::Impeller => ("impeller", true),
     };
+    let SectorReduction {
+        modes_per_diameter,
+        omega_grid,
+        blade_modes,
+    } = reduction;
     if modes_per_diameter == 0 {
         return Err(BuildError::Invalid(format!(
             "{label}.modes_per_diameter must be at least 1"
+        )));
+    }
+    if blade_modes > 0 && mesh.blade_elements.is_empty() {
+        return Err(BuildError::Invalid(format!(
+            "{label}.blade_modes: the {label} sector names no blade elements"
         )));
     }
     let fe_error = |source| BuildError::Fe {
@@ -186,6 +218,11 @@ pub fn reduce_sector(
             .reduce(f64::max)
             .filter(|&w| w > 0.0);
     }
+    let blade = if blade_modes > 0 {
+        Some(assemble_element_set(mesh, &mesh.blade_elements).map_err(fe_error)?)
+    } else {
+        None
+    };
     let opts = ReductionOptions {
         modes_per_diameter,
         omega_grid,
@@ -194,8 +231,9 @@ pub fn reduce_sector(
         damping,
         recovery_points: mesh.named_nodes.clone(),
         speed_basis,
+        blade_modes,
     };
-    reduce_cyclic(mesh, &mats, &opts).map_err(|source| BuildError::Reduction {
+    reduce_cyclic(mesh, &mats, blade.as_ref(), &opts).map_err(|source| BuildError::Reduction {
         component: label,
         source,
     })
@@ -206,7 +244,7 @@ pub fn reduce_sector(
 fn reduce_built_in(
     component: Component,
     mesh: Result<SectorMesh, MeshError>,
-    reduction: (usize, Vec<f64>),
+    reduction: SectorReduction,
     prestress: Prestress,
     damping: Damping,
     spec: &impl Serialize,
@@ -248,7 +286,11 @@ pub fn build_casing(spec: &CasingSpec) -> Result<CyclicRom, BuildError> {
     reduce_built_in(
         Component::Casing,
         spec.geometry.build(),
-        (spec.modes_per_diameter, vec![0.0]),
+        SectorReduction {
+            modes_per_diameter: spec.modes_per_diameter,
+            omega_grid: vec![0.0],
+            blade_modes: 0,
+        },
         Prestress::default(),
         spec.damping,
         spec,
@@ -262,7 +304,11 @@ pub fn build_impeller(spec: &ImpellerSpec) -> Result<CyclicRom, BuildError> {
     reduce_built_in(
         Component::Impeller,
         spec.geometry.build(),
-        (spec.modes_per_diameter, grid),
+        SectorReduction {
+            modes_per_diameter: spec.modes_per_diameter,
+            omega_grid: grid,
+            blade_modes: spec.blade_modes,
+        },
         spec.prestress,
         spec.damping,
         spec,

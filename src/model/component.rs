@@ -505,6 +505,7 @@ pub fn reduce_component(
         damping: opts.damping,
         provenance: serde_json::Value::Null,
         recovery,
+        blade_modes: Default::default(),
     })
 }
 

@@ -381,8 +381,20 @@ impl CyclicDofMap {
         &self,
         a: &SparseColMat<usize, f64>,
     ) -> Result<SparseColMat<usize, f64>, CyclicError> {
+        self.assemble_full_weighted(a, &vec![1.0; self.n_sectors])
+    }
+
+    /// [`Self::assemble_full`] with sector `s`'s copy of `a` scaled by `weights[s]` (a
+    /// mistuned wheel's reference: the blade's stiffness of each sector scaled by its own factor).
+    #[cfg(test)]
+    pub(crate) fn assemble_full_weighted(
+        &self,
+        a: &SparseColMat<usize, f64>,
+        weights: &[f64],
+    ) -> Result<SparseColMat<usize, f64>, CyclicError> {
         self.check_shape(a.nrows(), a.ncols())?;
         let n_sec = self.n_sectors;
+        assert_eq!(weights.len(), n_sec, "one weight per sector");
         let ni = self.n_independent;
         let rot = rot_z(2.0 * PI / n_sec as f64);
         let one = c64::new(1.0, 0.0);
@@ -391,12 +403,16 @@ impl CyclicDofMap {
             let (tc, nc, next_c) = self.terms(col, one, &rot);
             for (row, &v) in a.row_idx_of_col(col).zip(a.val_of_col(col)) {
                 let (tr, nr, next_r) = self.terms(row, one, &rot);
-                for s in 0..n_sec {
+                for (s, &weight) in weights.iter().enumerate() {
                     let off_r = ((s + next_r as usize) % n_sec) * ni;
                     let off_c = ((s + next_c as usize) % n_sec) * ni;
                     for &(i, ci) in &tr[..nr] {
                         for &(j, cj) in &tc[..nc] {
-                            out.push(Triplet::new(off_r + i, off_c + j, ci.re * v * cj.re));
+                            out.push(Triplet::new(
+                                off_r + i,
+                                off_c + j,
+                                weight * ci.re * v * cj.re,
+                            ));
                         }
                     }
                 }

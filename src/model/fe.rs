@@ -480,6 +480,52 @@ pub(crate) fn assemble_sector(
     })
 }
 
+/// Elastic stiffness and consistent mass of a set of elements (a sector's blade), over the
+/// DOFs of the nodes those elements touch: local DOF `3·i + dir` is DOF `dir` of sector node
+/// `nodes[i]`. What a structural mistuning scales (Young's modulus of the set, [`Material`]).
+#[derive(Clone, Debug)]
+pub(crate) struct ElementSetMatrices {
+    /// Sector nodes of the set, ascending.
+    pub nodes: Vec<usize>,
+    /// Elastic stiffness of the set's elements, N/m.
+    pub stiffness: SparseColMat<usize, f64>,
+    /// Consistent mass of the set's elements, kg.
+    pub mass: SparseColMat<usize, f64>,
+}
+
+/// Assembles [`ElementSetMatrices`] of `elements` (indices into `mesh.elements`).
+pub(crate) fn assemble_element_set(
+    mesh: &SectorMesh,
+    elements: &[usize],
+) -> Result<ElementSetMatrices, FeError> {
+    let mut nodes: Vec<usize> = elements.iter().flat_map(|&e| mesh.elements[e]).collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    let local = |n: usize| nodes.binary_search(&n).expect("a node of the set");
+    let (mut tk, mut tm) = (Vec::new(), Vec::new());
+    for &e in elements {
+        let conn = &mesh.elements[e];
+        let gps = gauss_points(&element_coords(mesh, conn), e)?;
+        let local_conn = conn.map(local);
+        scatter(
+            &mut tk,
+            &local_conn,
+            &element_stiffness(&gps, &mesh.material),
+        );
+        scatter(
+            &mut tm,
+            &local_conn,
+            &element_mass(&gps, mesh.material.density, [1.0; 3]),
+        );
+    }
+    let n = 3 * nodes.len();
+    Ok(ElementSetMatrices {
+        stiffness: sparse(n, &tk)?,
+        mass: sparse(n, &tm)?,
+        nodes,
+    })
+}
+
 /// The initial-displacement stiffness of a sector about its centrifugal prestate `u₁` (per
 /// unit Ω², [`SectorMatrices::prestate`]): `[K_u1, K_u2]` with the tangent stiffness of the
 /// spinning sector `K0 + Ω² (K1 + K_u1) + Ω⁴ K_u2` ([`element_displacement_stiffness`]), the
@@ -631,6 +677,7 @@ pub(crate) mod tests {
             clamped_nodes: vec![],
             material: mat,
             named_nodes: vec![],
+            blade_elements: vec![],
         };
         (mesh, blk)
     }
@@ -960,6 +1007,7 @@ pub(crate) mod tests {
             clamped_nodes: vec![],
             material: mat,
             named_nodes: vec![],
+            blade_elements: vec![],
         };
         for i in 0..d0 {
             for k in 0..d2 {

@@ -119,6 +119,10 @@ pub struct SectorMesh {
     /// Named interior nodes whose displacement the ROM can recover (built-in models, see
     /// [`NamedNode`]); empty for other meshes.
     pub named_nodes: Vec<NamedNode>,
+    /// Indices (into `elements`) of the blade's elements: those whose Young's modulus a
+    /// structural mistuning scales (the disk keeps its own). Empty when the sector has no
+    /// blade (casing) or the model does not name it.
+    pub blade_elements: Vec<usize>,
 }
 
 /// A documented node of a built-in sector mesh, kept by the reduction as a recovery node:
@@ -187,6 +191,16 @@ impl SectorMesh {
                     "{name} references node {n} but there are {nn} nodes"
                 )));
             }
+        }
+        if let Some(&e) = self
+            .blade_elements
+            .iter()
+            .find(|&&e| e >= self.elements.len())
+        {
+            return Err(MeshError::InvalidMesh(format!(
+                "blade_elements references element {e} but there are {} elements",
+                self.elements.len()
+            )));
         }
         if self.left_nodes.len() != self.right_nodes.len() {
             return Err(MeshError::InvalidMesh(format!(
@@ -623,6 +637,7 @@ impl CasingGeometry {
                     .get(self.elements_meridian, 0, d2 - 1)
                     .expect("corner-line nodes exist"),
             }],
+            blade_elements: vec![],
         };
         mesh.validate()?;
         Ok(mesh)
@@ -896,7 +911,9 @@ impl ImpellerGeometry {
                 })
             })
             .collect();
+        let first_blade_element = b.elements.len();
         let blade = b.add_block([nm, 1, self.elements_span], |s| self.blade_map(s));
+        let blade_elements = (first_blade_element..b.elements.len()).collect();
         let mut left = Vec::new();
         let mut right = Vec::new();
         let (l, r) = (&disk[0], &disk[2]);
@@ -950,6 +967,7 @@ impl ImpellerGeometry {
                     node: blade.get(2 * nm, 1, mid).expect(on_edge),
                 },
             ],
+            blade_elements,
         };
         mesh.validate()?;
         Ok(mesh)
@@ -979,6 +997,7 @@ impl ImpellerGeometry {
             clamped_nodes: clamped,
             material: self.material,
             named_nodes: vec![],
+            blade_elements: vec![],
         })
     }
 }

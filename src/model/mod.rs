@@ -11,6 +11,9 @@ pub mod fe;
 pub(crate) mod hex20;
 pub mod mesh;
 mod mirror;
+pub mod mistuning;
+#[cfg(test)]
+mod mistuning_check;
 pub(crate) mod recovery;
 #[cfg(test)]
 mod recovery_check;

@@ -17,21 +17,22 @@ use crate::model::cyclic::{CyclicDofMap, is_real_harmonic};
 use crate::model::mesh::NamedNode;
 use crate::model::rom::{ComplexRows, Recovery, RecoveryNode};
 
-/// Rows `R_k` (3 per point, x y z of the sector frame, point-major) of the basis `v` of nodal
-/// diameter `k` over the independent DOFs of `map`; exactly real for the real harmonics.
+/// Rows `R_k` (3 per node, x y z of the sector frame, node-major) of the basis `v` of nodal
+/// diameter `k` over the independent DOFs of `map`, for sector nodes `nodes`; exactly real
+/// for the real harmonics.
 pub(crate) fn harmonic_recovery_rows(
     map: &CyclicDofMap,
     v: MatRef<'_, c64>,
-    points: &[NamedNode],
+    nodes: &[usize],
     k: usize,
 ) -> ComplexRows {
-    let (nr, nc) = (3 * points.len(), v.ncols());
+    let (nr, nc) = (3 * nodes.len(), v.ncols());
     let mut re = DMatrix::zeros(nr, nc);
     let mut im = DMatrix::zeros(nr, nc);
     let real = is_real_harmonic(k, map.n_sectors());
-    for (i, p) in points.iter().enumerate() {
+    for (i, &node) in nodes.iter().enumerate() {
         for d in 0..3 {
-            for (j, c) in map.dof_terms(3 * p.node + d, k) {
+            for (j, c) in map.dof_terms(3 * node + d, k) {
                 for col in 0..nc {
                     let x = c * v[(j, col)];
                     re[(3 * i + d, col)] += x.re;

@@ -27,7 +27,7 @@ fn worst_static_recovery_error(mesh: &SectorMesh, rotating: bool, modes: usize) 
         recovery_points: mesh.named_nodes.clone(),
         ..ReductionOptions::default()
     };
-    let rom: CyclicRom = reduce_cyclic(mesh, &mats, &opts).unwrap();
+    let rom: CyclicRom = reduce_cyclic(mesh, &mats, None, &opts).unwrap();
     assert_eq!(rom.recovery.nodes.len(), mesh.named_nodes.len());
     let topo = SectorTopology::of(mesh);
     let map = CyclicDofMap::new(&topo, &mesh.contact_nodes).unwrap();

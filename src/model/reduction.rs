@@ -22,12 +22,13 @@
 
 use crate::model::cyclic::{CyclicDofMap, CyclicError, SectorTopology, is_real_harmonic};
 use crate::model::eigen::{EigenError, dense_gen_eigen};
-use crate::model::fe::SectorMatrices;
+use crate::model::fe::{ElementSetMatrices, SectorMatrices};
 use crate::model::mesh::{NamedNode, SectorMesh};
+use crate::model::mistuning::{blade_modes_in_span, tuned_modes_below};
 use crate::model::recovery::{harmonic_recovery_rows, recovery_of};
 use crate::model::rom::{
-    ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock, HermitianMatrix,
-    ModalData, RomError,
+    BladeModes, ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock,
+    HermitianMatrix, ModalData, RomError,
 };
 use crate::model::sparse_eigen::{
     CholeskyFactor, Eigenpairs, Pencil, Scalar, SparseEigenError, SparseEigenOptions,
@@ -68,6 +69,9 @@ pub(crate) struct ReductionOptions {
     /// into the basis ([`merge_speed_modes`]): a basis of modes at rest alone does not
     /// represent the initial-displacement stiffness of the consistent prestress.
     pub speed_basis: Option<f64>,
+    /// Blade modes kept for structural mistuning ([`crate::model::rom::BladeModes`]; 0: none).
+    /// Needs the sector's blade ([`SectorModel::blade`]).
+    pub blade_modes: usize,
 }
 
 impl Default for ReductionOptions {
@@ -80,6 +84,7 @@ impl Default for ReductionOptions {
             damping: Damping::default(),
             recovery_points: Vec::new(),
             speed_basis: None,
+            blade_modes: 0,
         }
     }
 }
@@ -160,6 +165,12 @@ pub enum ReductionError {
         /// The sparse eigensolver's error.
         source: SparseEigenError,
     },
+    /// The blade's modes for mistuning could not be computed.
+    #[error("blade modes: {source}")]
+    BladeModes {
+        /// The eigensolver's error.
+        source: EigenError,
+    },
     /// The reduced model fails the ROM's own validation.
     #[error("reduced model is invalid: {0}")]
     Rom(#[from] RomError),
@@ -182,6 +193,8 @@ pub(crate) struct SectorModel<'a> {
     pub centrifugal: Option<&'a SparseColMat<usize, f64>>,
     /// Quartic centrifugal stiffness K2 (N/m per (rad/s)⁴): `K(Ω) = K0 + Ω² K1 + Ω⁴ K2`.
     pub centrifugal_quartic: Option<&'a SparseColMat<usize, f64>>,
+    /// The blade's elements' matrices, for its modes ([`ReductionOptions::blade_modes`]).
+    pub blade: Option<&'a ElementSetMatrices>,
 }
 
 /// Result of the reduction of one nodal diameter.
@@ -195,6 +208,8 @@ pub(crate) struct HarmonicReduction {
     pub fixed_interface_hz: Vec<f64>,
     /// Recovery rows of `opts.recovery_points` for this nodal diameter (no rows when none).
     pub recovery: ComplexRows,
+    /// The basis rows at the blade's nodes, when blade modes are asked for.
+    pub blade_rows: Option<ComplexRows>,
 }
 
 /// Reduces a built-in sector mesh and its assembled matrices to a [`CyclicRom`]
@@ -202,6 +217,7 @@ pub(crate) struct HarmonicReduction {
 pub(crate) fn reduce_cyclic(
     mesh: &SectorMesh,
     mats: &SectorMatrices,
+    blade: Option<&ElementSetMatrices>,
     opts: &ReductionOptions,
 ) -> Result<CyclicRom, ReductionError> {
     let model = SectorModel {
@@ -212,6 +228,7 @@ pub(crate) fn reduce_cyclic(
         mass: &mats.mass,
         centrifugal: mats.centrifugal.as_ref(),
         centrifugal_quartic: mats.centrifugal_quartic.as_ref(),
+        blade,
     };
     reduce_sector_model(&model, opts)
 }
@@ -245,8 +262,28 @@ pub(crate) fn reduce_sector_model(
         "fixed_interface_hz": results.iter().map(|r| r.fixed_interface_hz.clone()).collect::<Vec<_>>(),
         "accuracy_cutoff_hz": results.iter().map(|r| accuracy_cutoff_hz(&r.fixed_interface_hz)).collect::<Vec<_>>(),
     });
+    let blade_modes = match model.blade {
+        Some(blade) if opts.blade_modes > 0 => {
+            let n = model.topology.n_sectors;
+            let tuned = results
+                .iter()
+                .map(|r| {
+                    let real = is_real_harmonic(r.block.nodal_diameter, n);
+                    tuned_modes_below(&r.block, real, accuracy_cutoff_hz(&r.fixed_interface_hz))
+                })
+                .collect::<Result<Vec<_>, _>>();
+            let rows: Vec<ComplexRows> = results
+                .iter()
+                .filter_map(|r| r.blade_rows.clone())
+                .collect();
+            tuned
+                .and_then(|tuned| blade_modes_in_span(blade, &rows, &tuned, n, opts.blade_modes))
+                .map_err(|source| ReductionError::BladeModes { source })?
+        }
+        _ => BladeModes::default(),
+    };
     let mut rows = Vec::with_capacity(results.len());
-    let (harmonics, modal_data) = results
+    let (harmonics, modal_data): (Vec<_>, Vec<_>) = results
         .into_iter()
         .map(|r| {
             rows.push(r.recovery);
@@ -263,6 +300,7 @@ pub(crate) fn reduce_sector_model(
         damping: opts.damping,
         provenance,
         recovery: recovery_of(&opts.recovery_points, model.nodes, rows),
+        blade_modes: Box::new(blade_modes),
     };
     rom.validate()?;
     Ok(rom)
@@ -441,12 +479,20 @@ pub(crate) fn reduce_harmonic(
     };
     let modal = modal_data(&block, nb, real, &opts.omega_grid)
         .map_err(|source| ReductionError::Eigen { k, source })?;
-    let recovery = harmonic_recovery_rows(map, v.as_ref(), &opts.recovery_points, k);
+    let points: Vec<usize> = opts.recovery_points.iter().map(|p| p.node).collect();
+    let recovery = harmonic_recovery_rows(map, v.as_ref(), &points, k);
+    let blade_rows = match model.blade {
+        Some(blade) if opts.blade_modes > 0 => {
+            Some(harmonic_recovery_rows(map, v.as_ref(), &blade.nodes, k))
+        }
+        _ => None,
+    };
     Ok(HarmonicReduction {
         block,
         modal,
         fixed_interface_hz: lam.iter().map(|&l| signed_hz(l)).collect(),
         recovery,
+        blade_rows,
     })
 }
 
@@ -734,6 +780,7 @@ mod tests {
             mass: &s.m,
             centrifugal: Some(&s.k1),
             centrifugal_quartic: None,
+            blade: None,
         }
     }
 
@@ -1199,6 +1246,7 @@ mod exactness_tests {
             mass: &s.m,
             centrifugal: None,
             centrifugal_quartic: None,
+            blade: None,
         };
         let o = ReductionOptions {
             modes_per_diameter: 10_000,

@@ -213,6 +213,24 @@ impl Recovery {
     }
 }
 
+/// The blade's shapes expressed in the ROM coordinates: what a structural mistuning acts
+/// through (DESIGN §11, [`crate::model::mistuning`]).
+///
+/// Shape `j` is a motion ψ_j of the sector's blade elements, `M_b`-normalized, with
+/// `ω_j² = ψ_jᵀ K_b ψ_j` (its Rayleigh quotient on the blade's elastic stiffness `K_b` and
+/// mass `M_b`); the shapes are `K_b`-orthogonal, in the order of the blade strain energy of
+/// the tuned modes they capture. For nodal diameter `k`, `rows[k]` is the complex
+/// `n_bm × (3 n_c + n_m(k))` matrix `P_k` with `p_s = Σ_k Re(P_k x̃_k e^{i k θ_s})` the
+/// coordinates `ψ_jᵀ K_b u_s / ω_j²` (√kg·m) of sector `s`'s blade. The strain energy of that
+/// blade is `½ Σ_j ω_j² p_{s,j}²`, exactly for motions in the shapes' span.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BladeModes {
+    /// `ω_j²` of each kept shape, (rad/s)², most energetic first (empty: no blade shapes).
+    pub omega2: Vec<f64>,
+    /// One block `P_k` per nodal diameter (empty when `omega2` is).
+    pub rows: Vec<ComplexRows>,
+}
+
 /// Free-vibration data of one nodal diameter, for the Campbell diagram and the interaction criterion.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -252,6 +270,10 @@ pub struct CyclicRom {
     pub provenance: serde_json::Value,
     /// Recovery matrix of chosen interior FE nodes (empty when none were asked for).
     pub recovery: Recovery,
+    /// The blade's modes in the span of the reduction basis, which a structural mistuning
+    /// acts through (empty when none were asked for; see [`BladeModes`]). Boxed: the casing
+    /// enums that hold a ROM stay small.
+    pub blade_modes: Box<BladeModes>,
 }
 
 /// A ROM that fails validation; every variant names what is wrong.
@@ -351,6 +373,9 @@ pub enum RomError {
     /// The recovery matrix is inconsistent with the ROM (holds the reason).
     #[error("recovery: {0}")]
     Recovery(String),
+    /// The blade modes are inconsistent with the ROM (holds the reason).
+    #[error("blade modes: {0}")]
+    BladeModes(String),
 }
 
 /// Relative tolerance on the symmetry of stored matrices.
@@ -459,11 +484,61 @@ impl CyclicRom {
             }
         }
         self.validate_recovery()?;
+        self.validate_blade_modes()?;
         self.damping.check()
     }
 }
 
 impl CyclicRom {
+    /// Checks the blade modes: positive finite `ω²` and one finite block of
+    /// `n_bm` rows per harmonic, real for the real harmonics.
+    fn validate_blade_modes(&self) -> Result<(), RomError> {
+        let b = &self.blade_modes;
+        let bad = |m: String| Err(RomError::BladeModes(m));
+        if b.omega2.is_empty() {
+            return if b.rows.is_empty() {
+                Ok(())
+            } else {
+                bad("rows without modes".into())
+            };
+        }
+        if let Some(j) = b.omega2.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
+            return bad(format!("ω² of mode {j} is {} (rad/s)²", b.omega2[j]));
+        }
+        if b.rows.len() != self.harmonics.len() {
+            return bad(format!(
+                "{} blocks of rows, expected one per nodal diameter ({})",
+                b.rows.len(),
+                self.harmonics.len()
+            ));
+        }
+        for (k, (p, h)) in b.rows.iter().zip(&self.harmonics).enumerate() {
+            let shape = (b.omega2.len(), self.n_boundary() + h.n_modes);
+            for (part, m) in [("re", &p.re), ("im", &p.im)] {
+                if m.shape() != shape {
+                    return bad(format!(
+                        "rows of nodal diameter {k} ({part}) are {}×{}, expected {}×{}",
+                        m.nrows(),
+                        m.ncols(),
+                        shape.0,
+                        shape.1
+                    ));
+                }
+                if m.iter().any(|x| !x.is_finite()) {
+                    return bad(format!(
+                        "rows of nodal diameter {k} ({part}) are not finite"
+                    ));
+                }
+            }
+            if crate::model::cyclic::is_real_harmonic(k, self.n_sectors)
+                && p.im.iter().any(|x| *x != 0.0)
+            {
+                return bad(format!("rows of the real nodal diameter {k} are complex"));
+            }
+        }
+        Ok(())
+    }
+
     /// Checks the recovery matrix: one block per harmonic of `3 n_r` rows and the harmonic's
     /// order of columns, finite, real for the real harmonics; node ids unique and positions finite.
     fn validate_recovery(&self) -> Result<(), RomError> {
@@ -602,6 +677,7 @@ mod tests {
             damping: Damping::default(),
             provenance: serde_json::Value::Null,
             recovery: Recovery::default(),
+            blade_modes: Box::default(),
         }
     }
 

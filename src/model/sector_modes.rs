@@ -121,7 +121,6 @@ mod tests {
     use crate::model::build::{CasingSpec, ImpellerSpec, Prestress, build_casing, build_impeller};
     use crate::model::mesh::CasingGeometry;
     use crate::model::mesh::ImpellerGeometry;
-    use crate::model::rom::Damping;
 
     /// Sixty modes on every nodal diameter of the default casing sector (λ₆₀/λ₁ ≈ 80 on
     /// nodal diameter 0, where shift-invert at 0 alone stopped at 59 of 60 above the
@@ -215,7 +214,7 @@ mod tests {
             modes_per_diameter: 10,
             omega_grid_rad_s: vec![0.0, 3500.0, 7000.0],
             prestress: Prestress::Consistent,
-            damping: Damping::default(),
+            ..ImpellerSpec::default()
         };
         let rom = build_impeller(&spec).unwrap();
         let mesh = geometry.build().unwrap();

@@ -221,6 +221,7 @@ fn oscillator_rom(m: f64, k: f64, r0: f64) -> CyclicRom {
         damping: Damping::Modal { ratio: 0.0 },
         provenance: serde_json::Value::Null,
         recovery: Default::default(),
+        blade_modes: Default::default(),
     }
 }
 
