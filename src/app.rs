@@ -118,10 +118,53 @@ fn checked_sweep(spec: &SweepSpec) -> Result<(ModelSimulator, Plan), AppError> {
 }
 
 /// `rubscan model info`: a human-readable summary of a ROM file (sizes, frequencies per
-/// nodal diameter at the lowest and highest rotation speed of its modal data).
-pub fn model_info(path: &Path) -> Result<String> {
+/// nodal diameter at the lowest and highest rotation speed of its modal data). With a
+/// structural mistuning pattern (`δ_s` per blade), the mistuned wheel's modes at `omega`
+/// (rad/s) follow ([`describe_mistuned_modes`]).
+pub fn model_info(path: &Path, mistuning: Option<(&[f64], f64)>) -> Result<String> {
     let rom = rom_file::load(path)?;
-    Ok(describe_rom(&rom))
+    let mut text = describe_rom(&rom);
+    if let Some((delta, omega)) = mistuning {
+        text += &describe_mistuned_modes(&rom, delta, omega)
+            .with_context(|| format!("{}: --mistuning", path.display()))?;
+    }
+    Ok(text)
+}
+
+/// The lowest 3 N_b modes of `rom`'s wheel with blade `s`'s Young's modulus scaled by
+/// `1 + delta[s]`, at `omega` (rad/s): frequency (Hz), localization (inverse participation
+/// ratio, 1 to N_b), the blade moving most, and every blade's tip amplitude relative to it.
+pub(crate) fn describe_mistuned_modes(
+    rom: &CyclicRom,
+    delta: &[f64],
+    omega: f64,
+) -> Result<String> {
+    let modes =
+        crate::analysis::mistuned_modes::mistuned_modes(rom, delta, omega, 3 * rom.n_sectors)?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "mistuned wheel at Ω = {omega:.1} rad/s, blade Young's modulus × (1 + δ), δ = {delta:?} \
+         ({} blade shapes):",
+        rom.blade_modes.omega2.len()
+    );
+    let _ = writeln!(
+        s,
+        "{:>4}  {:>12}  {:>6}  {:>5}  blade tip amplitudes / largest (blade 0, 1, …)",
+        "mode", "f [Hz]", "IPR", "blade"
+    );
+    for (p, f) in modes.frequencies_hz.iter().enumerate() {
+        let amp = &modes.blade_amplitude[p];
+        let top = amp.iter().position(|&a| a == 1.0).unwrap_or(0);
+        let list: Vec<String> = amp.iter().map(|a| format!("{a:.2}")).collect();
+        let _ = writeln!(
+            s,
+            "{p:>4}  {f:>12.2}  {:>6.2}  {top:>5}  {}",
+            modes.localization[p],
+            list.join(" ")
+        );
+    }
+    Ok(s)
 }
 
 /// Summary text of a ROM: sizes, then per nodal diameter the first natural frequencies (Hz).
@@ -1122,10 +1165,48 @@ mod tests {
 
     #[test]
     fn info_names_the_missing_file() {
-        let err = model_info(Path::new("/nonexistent/x.rom"))
+        let err = model_info(Path::new("/nonexistent/x.rom"), None)
             .unwrap_err()
             .to_string();
         assert!(err.contains("/nonexistent/x.rom"), "{err}");
+    }
+
+    /// The mistuned modes of a small wheel: one line per mode with N_b amplitudes, the blade
+    /// moving most at 1.00. A ROM without blade shapes and a pattern of the wrong length are
+    /// refused, naming what to change.
+    #[test]
+    fn info_prints_the_mistuned_modes_and_names_what_is_missing() {
+        use crate::model::build::{ImpellerSpec, build_impeller};
+        use crate::model::mesh::ImpellerGeometry;
+        let spec = ImpellerSpec {
+            geometry: ImpellerGeometry {
+                n_blades: 4,
+                ..ImpellerGeometry::default()
+            },
+            modes_per_diameter: 6,
+            omega_grid_rad_s: vec![0.0],
+            blade_modes: 4,
+            ..ImpellerSpec::default()
+        };
+        let rom = build_impeller(&spec).unwrap();
+        let text = describe_mistuned_modes(&rom, &[0.1, 0.0, 0.0, 0.0], 0.0).unwrap();
+        let rows: Vec<&str> = text.lines().skip(2).collect();
+        assert_eq!(rows.len(), 12, "{text}");
+        for row in rows {
+            let cols: Vec<&str> = row.split_whitespace().collect();
+            assert_eq!(cols.len(), 4 + 4, "{row}");
+            assert!(cols[4..].contains(&"1.00"), "{row}");
+        }
+        let err = describe_mistuned_modes(&rom, &[0.1, 0.0], 0.0)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("2 values for 4 blades"), "{err}");
+        let mut plain = rom.clone();
+        *plain.blade_modes = Default::default();
+        let err = describe_mistuned_modes(&plain, &[0.0; 4], 0.0)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("impeller.blade_modes"), "{err}");
     }
 
     /// A cause that the message above it already quotes is not said again (it printed

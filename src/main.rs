@@ -191,10 +191,18 @@ enum ModelAction {
         #[arg(short, long)]
         output: PathBuf,
     },
-    /// Print sizes, frequencies per nodal diameter and Ω dependence of a ROM file.
+    /// Print sizes, frequencies per nodal diameter and Ω dependence of a ROM file; with
+    /// `--mistuning`, the mistuned wheel's modes.
     Info {
         /// ROM file.
         file: PathBuf,
+        /// Structural mistuning: one δ per blade, comma-separated (blade s's Young's modulus
+        /// is E (1 + δ_s)); needs a ROM built with `impeller.blade_modes` > 0.
+        #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+        mistuning: Option<Vec<f64>>,
+        /// Rotation speed (rad/s) of the mistuned modes.
+        #[arg(long, default_value_t = 0.0, requires = "mistuning")]
+        omega: f64,
     },
 }
 
@@ -269,8 +277,16 @@ fn dispatch(command: Command) -> Result<(), AppError> {
             Ok(())
         }
         Command::Model {
-            action: ModelAction::Info { file },
-        } => Ok(app::model_info(&file).map(|text| print!("{text}"))?),
+            action:
+                ModelAction::Info {
+                    file,
+                    mistuning,
+                    omega,
+                },
+        } => Ok(
+            app::model_info(&file, mistuning.as_deref().map(|d| (d, omega)))
+                .map(|text| print!("{text}"))?,
+        ),
         Command::Simulate { spec, job, output } => app::simulate(
             &load_spec(&spec)?,
             job,

@@ -12,8 +12,6 @@ pub(crate) mod hex20;
 pub mod mesh;
 mod mirror;
 pub mod mistuning;
-#[cfg(test)]
-mod mistuning_check;
 pub(crate) mod recovery;
 #[cfg(test)]
 mod recovery_check;

@@ -24,7 +24,7 @@ use crate::model::cyclic::{CyclicDofMap, CyclicError, SectorTopology, is_real_ha
 use crate::model::eigen::{EigenError, dense_gen_eigen};
 use crate::model::fe::{ElementSetMatrices, SectorMatrices};
 use crate::model::mesh::{NamedNode, SectorMesh};
-use crate::model::mistuning::{blade_modes_in_span, tuned_modes_below};
+use crate::model::mistuning::blade_modes_in_span;
 use crate::model::recovery::{harmonic_recovery_rows, recovery_of};
 use crate::model::rom::{
     BladeModes, ComplexRows, Component, ContactNode, CyclicRom, Damping, HarmonicBlock,
@@ -547,6 +547,30 @@ pub fn modal_data(
         data.shapes_im.push(im);
     }
     Ok(data)
+}
+
+/// The tuned modes of a harmonic block at rest below `cutoff_hz` (at least the first), as
+/// columns in ROM coordinates, each mass-normalized and divided by its circular frequency
+/// (its strain energy is then ½): the snapshots of
+/// [`crate::model::mistuning`]'s blade shapes.
+pub(crate) fn tuned_modes_below(
+    block: &HarmonicBlock,
+    real: bool,
+    cutoff_hz: f64,
+) -> Result<ComplexRows, EigenError> {
+    let (k, m) = (to_faer(&block.stiffness[0]), to_faer(&block.mass));
+    let (lam, x) = dense_gen_eigen(k.as_ref(), m.as_ref(), real)?;
+    let limit = (std::f64::consts::TAU * cutoff_hz).powi(2);
+    let kept = lam.iter().take_while(|&&l| l <= limit).count().max(1);
+    if lam[..kept].iter().any(|&l| l <= 0.0) {
+        return Err(EigenError::MassNotDefinite);
+    }
+    let n = x.nrows();
+    let scale = |j: usize| 1.0 / lam[j].sqrt();
+    Ok(ComplexRows {
+        re: DMatrix::from_fn(n, kept, |i, j| x[(i, j)].re * scale(j)),
+        im: DMatrix::from_fn(n, kept, |i, j| x[(i, j)].im * scale(j)),
+    })
 }
 
 /// Hermitian part of a reduced matrix, as the ROM's (re, im) pair; exactly real for the real harmonics.

@@ -1102,6 +1102,7 @@ mod tests {
         casing.damping = impeller.damping;
         impeller.geometry.blade_lean_deg = -20.0;
         impeller.prestress = crate::model::build::Prestress::StressStiffening;
+        impeller.blade_modes = 10;
         b.models.impeller = ModelSource::Builtin(Box::new(impeller));
         b.models.casing = CasingSource::Builtin(Box::new(casing));
         b.grid.speed = SpeedAxis {

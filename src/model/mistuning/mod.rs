@@ -33,9 +33,13 @@ use crate::model::eigen::EigenError;
 use crate::model::fe::ElementSetMatrices;
 use crate::model::rom::{BladeModes, ComplexRows, CyclicRom};
 
+mod pattern;
+pub use pattern::{MAX_SIGMA, Scatter, StiffnessPattern};
+
 /// Blade shapes kept for a structural mistuning when a model asks for it without a count
 /// (`impeller.blade_modes`): on the built-in impeller 5 already reach the tuned ROM's own
-/// error against the full mistuned wheel (`mistuning_check`), 10 leave a margin.
+/// error against the full mistuned wheel (`analysis::mistuned_modes` checks), 10 leave a
+/// margin.
 pub const DEFAULT_BLADE_MODES: usize = 10;
 
 /// A mistuning pattern that cannot be applied; the message names the field and the reason.
@@ -62,6 +66,16 @@ pub enum MistuningError {
         value: f64,
         /// Why it is refused.
         reason: &'static str,
+    },
+    /// A parameter of a pattern is out of range.
+    #[error("{field} = {value}: {reason}")]
+    Parameter {
+        /// The parameter.
+        field: String,
+        /// Its value.
+        value: f64,
+        /// Why it is refused.
+        reason: String,
     },
     /// The ROM carries no blade modes.
     #[error(
@@ -234,30 +248,6 @@ fn snapshots(tuned: &[ComplexRows], real: &[bool], widths: &[usize], r: usize) -
     z
 }
 
-/// The tuned modes of a harmonic block at rest below `cutoff_hz` (at least the first), as
-/// columns in ROM coordinates, each mass-normalized and divided by its circular frequency
-/// (its strain energy is then ½): the snapshots of [`blade_modes_in_span`].
-pub(crate) fn tuned_modes_below(
-    block: &crate::model::rom::HarmonicBlock,
-    real: bool,
-    cutoff_hz: f64,
-) -> Result<ComplexRows, EigenError> {
-    use crate::model::reduction::to_faer;
-    let (k, m) = (to_faer(&block.stiffness[0]), to_faer(&block.mass));
-    let (lam, x) = crate::model::eigen::dense_gen_eigen(k.as_ref(), m.as_ref(), real)?;
-    let limit = (std::f64::consts::TAU * cutoff_hz).powi(2);
-    let kept = lam.iter().take_while(|&&l| l <= limit).count().max(1);
-    if lam[..kept].iter().any(|&l| l <= 0.0) {
-        return Err(EigenError::MassNotDefinite);
-    }
-    let n = x.nrows();
-    let scale = |j: usize| 1.0 / lam[j].sqrt();
-    Ok(ComplexRows {
-        re: DMatrix::from_fn(n, kept, |i, j| x[(i, j)].re * scale(j)),
-        im: DMatrix::from_fn(n, kept, |i, j| x[(i, j)].im * scale(j)),
-    })
-}
-
 /// Layout of the wheel coordinates: every nodal diameter's ROM coordinates in real form
 /// (`a`, then `b` for a complex harmonic), `k = 0..=N/2` in order.
 #[derive(Clone, Debug)]
@@ -350,11 +340,11 @@ pub(crate) fn wheel_mistuning_stiffness(
     layout: &WheelCoordinates,
     delta: &[f64],
 ) -> Result<DMatrix<f64>, MistuningError> {
-    check_stiffness_pattern("stiffness", delta, rom.n_sectors)?;
     let modes = &rom.blade_modes;
     if modes.omega2.is_empty() {
         return Err(MistuningError::NoBladeModes);
     }
+    check_stiffness_pattern("stiffness", delta, rom.n_sectors)?;
     let mut out = DMatrix::zeros(layout.total, layout.total);
     let mut g = vec![0.0; layout.total];
     for (s, &d) in delta.iter().enumerate() {

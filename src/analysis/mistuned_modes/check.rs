@@ -1,11 +1,11 @@
-//! Checks of the structural mistuning ([`super::mistuning`]) against the full 360° FE model of
+//! Checks of the structural mistuning ([`crate::model::mistuning`]) against the full 360° FE model of
 //! the mistuned wheel, each sector's blade elements with their own modulus (test only: it
 //! calls the reduction and the analysis stage).
 
 use faer::Mat;
 use faer::sparse::{SparseColMat, Triplet};
 
-use crate::analysis::mistuned_modes::mistuned_modes;
+use super::mistuned_modes;
 use crate::model::build::{ImpellerSpec, build_impeller};
 use crate::model::cyclic::{CyclicDofMap, SectorTopology};
 use crate::model::fe::{assemble_element_set, assemble_sector};
@@ -186,7 +186,7 @@ fn the_mistuned_impeller_matches_its_full_annulus() {
             let modes = mistuned_modes(&truncated(rom, n_bm), &delta, 0.0, count).unwrap();
             let (f, mac) = compare(&modes.frequencies_hz, &modes.tips, &fe_hz, &fe_tips, count);
             println!("{n_bm:>12} | {name} | {:.3} % | {mac:.4}", 100.0 * f);
-            if n_bm == super::mistuning::DEFAULT_BLADE_MODES {
+            if n_bm == crate::model::mistuning::DEFAULT_BLADE_MODES {
                 assert!(f < 5e-3, "{name}: frequency error {f:e} with {n_bm} shapes");
                 assert!(mac >= 0.95, "{name}: MAC {mac} with {n_bm} shapes");
             }

@@ -116,6 +116,9 @@ pub fn inverse_participation_ratio(a: &[f64]) -> f64 {
 }
 
 #[cfg(test)]
+mod check;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
