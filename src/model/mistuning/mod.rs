@@ -85,8 +85,8 @@ pub enum MistuningError {
     NoBladeModes,
 }
 
-/// Checks a structural pattern (`field` names it): one `δ_s` per blade of `rom`, finite and
-/// above −1 (a blade's modulus stays positive).
+/// Checks a structural pattern (`field` names it): one `δ_s` per blade of an `n_blades`
+/// wheel, each finite and above −1 (a blade's modulus stays positive).
 pub fn check_stiffness_pattern(
     field: &str,
     delta: &[f64],
