@@ -475,23 +475,32 @@ fn read_recovery(
             name: names.get(i).cloned().flatten(),
         })
         .collect();
-    let nr = 3 * ids.len();
-    let rows = harmonics
+    let rows = read_rows("recovery", 3 * ids.len(), harmonics, tensor)?;
+    Ok(Recovery { nodes, rows })
+}
+
+/// One `{prefix}.{k}.{re,im}` block of `n_rows × (3 n_c + n_m(k))` per harmonic.
+fn read_rows(
+    prefix: &str,
+    n_rows: usize,
+    harmonics: &[HarmonicBlock],
+    tensor: &TensorReader<'_>,
+) -> Result<Vec<ComplexRows>, RomFileError> {
+    harmonics
         .iter()
         .enumerate()
         .map(|(k, h)| {
             let n = h.mass.size();
             let part = |p: &str| {
-                tensor(&format!("recovery.{k}.{p}"), &[nr, n])
-                    .map(|v| DMatrix::from_row_slice(nr, n, &v))
+                tensor(&format!("{prefix}.{k}.{p}"), &[n_rows, n])
+                    .map(|v| DMatrix::from_row_slice(n_rows, n, &v))
             };
             Ok(ComplexRows {
                 re: part("re")?,
                 im: part("im")?,
             })
         })
-        .collect::<Result<_, RomFileError>>()?;
-    Ok(Recovery { nodes, rows })
+        .collect()
 }
 
 /// The blade modes of a file: `blade_modes.omega2` and one `blade_modes.{k}.{re,im}` block of
@@ -505,21 +514,7 @@ fn read_blade_modes(
         return Ok(BladeModes::default());
     }
     let omega2 = tensor("blade_modes.omega2", &[count])?;
-    let rows = harmonics
-        .iter()
-        .enumerate()
-        .map(|(k, h)| {
-            let n = h.mass.size();
-            let part = |p: &str| {
-                tensor(&format!("blade_modes.{k}.{p}"), &[count, n])
-                    .map(|v| DMatrix::from_row_slice(count, n, &v))
-            };
-            Ok(ComplexRows {
-                re: part("re")?,
-                im: part("im")?,
-            })
-        })
-        .collect::<Result<_, RomFileError>>()?;
+    let rows = read_rows("blade_modes", count, harmonics, tensor)?;
     Ok(BladeModes { omega2, rows })
 }
 

@@ -240,7 +240,7 @@ pub(crate) fn reduce_sector_model(
 ) -> Result<CyclicRom, ReductionError> {
     let map = check_model(model, opts)?;
     let kmax = model.topology.n_sectors / 2;
-    let results: Vec<HarmonicReduction> = (0..=kmax)
+    let mut results: Vec<HarmonicReduction> = (0..=kmax)
         .into_par_iter()
         .map(|k| reduce_harmonic(model, &map, k, opts))
         .collect::<Result<_, _>>()?;
@@ -273,8 +273,8 @@ pub(crate) fn reduce_sector_model(
                 })
                 .collect::<Result<Vec<_>, _>>();
             let rows: Vec<ComplexRows> = results
-                .iter()
-                .filter_map(|r| r.blade_rows.clone())
+                .iter_mut()
+                .filter_map(|r| r.blade_rows.take())
                 .collect();
             tuned
                 .and_then(|tuned| blade_modes_in_span(blade, &rows, &tuned, n, opts.blade_modes))

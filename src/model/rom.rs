@@ -505,38 +505,8 @@ impl CyclicRom {
         if let Some(j) = b.omega2.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
             return bad(format!("ω² of mode {j} is {} (rad/s)²", b.omega2[j]));
         }
-        if b.rows.len() != self.harmonics.len() {
-            return bad(format!(
-                "{} blocks of rows, expected one per nodal diameter ({})",
-                b.rows.len(),
-                self.harmonics.len()
-            ));
-        }
-        for (k, (p, h)) in b.rows.iter().zip(&self.harmonics).enumerate() {
-            let shape = (b.omega2.len(), self.n_boundary() + h.n_modes);
-            for (part, m) in [("re", &p.re), ("im", &p.im)] {
-                if m.shape() != shape {
-                    return bad(format!(
-                        "rows of nodal diameter {k} ({part}) are {}×{}, expected {}×{}",
-                        m.nrows(),
-                        m.ncols(),
-                        shape.0,
-                        shape.1
-                    ));
-                }
-                if m.iter().any(|x| !x.is_finite()) {
-                    return bad(format!(
-                        "rows of nodal diameter {k} ({part}) are not finite"
-                    ));
-                }
-            }
-            if crate::model::cyclic::is_real_harmonic(k, self.n_sectors)
-                && p.im.iter().any(|x| *x != 0.0)
-            {
-                return bad(format!("rows of the real nodal diameter {k} are complex"));
-            }
-        }
-        Ok(())
+        self.check_harmonic_rows(&b.rows, b.omega2.len())
+            .map_err(RomError::BladeModes)
     }
 
     /// Checks the recovery matrix: one block per harmonic of `3 n_r` rows and the harmonic's
@@ -569,32 +539,39 @@ impl CyclicRom {
                 ));
             }
         }
-        if r.rows.len() != self.harmonics.len() {
-            return bad(format!(
+        self.check_harmonic_rows(&r.rows, 3 * r.nodes.len())
+            .map_err(RomError::Recovery)
+    }
+
+    /// Checks rows read against the ROM coordinates ([`Recovery`], [`BladeModes`]): one block
+    /// per harmonic of `n_rows` rows and the harmonic's order of columns, finite, real for the
+    /// real harmonics; the error says what is wrong.
+    fn check_harmonic_rows(&self, rows: &[ComplexRows], n_rows: usize) -> Result<(), String> {
+        if rows.len() != self.harmonics.len() {
+            return Err(format!(
                 "{} blocks of rows, expected one per nodal diameter ({})",
-                r.rows.len(),
+                rows.len(),
                 self.harmonics.len()
             ));
         }
-        let nr = 3 * r.nodes.len();
-        for (k, (b, h)) in r.rows.iter().zip(&self.harmonics).enumerate() {
+        for (k, (b, h)) in rows.iter().zip(&self.harmonics).enumerate() {
             let n = self.n_boundary() + h.n_modes;
             for (part, m) in [("re", &b.re), ("im", &b.im)] {
-                if m.shape() != (nr, n) {
-                    return bad(format!(
-                        "rows of nodal diameter {k} ({part}) are {}×{}, expected {nr}×{n}",
+                if m.shape() != (n_rows, n) {
+                    return Err(format!(
+                        "rows of nodal diameter {k} ({part}) are {}×{}, expected {n_rows}×{n}",
                         m.nrows(),
                         m.ncols()
                     ));
                 }
                 if m.iter().any(|x| !x.is_finite()) {
-                    return bad(format!(
+                    return Err(format!(
                         "rows of nodal diameter {k} ({part}) are not finite"
                     ));
                 }
             }
             if self.is_real_harmonic(k) && b.im.iter().any(|&x| x != 0.0) {
-                return bad(format!("rows of nodal diameter {k} must be real"));
+                return Err(format!("rows of nodal diameter {k} must be real"));
             }
         }
         Ok(())

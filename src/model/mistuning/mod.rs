@@ -300,9 +300,7 @@ impl WheelCoordinates {
         out: &mut [f64],
     ) {
         for k in 0..self.offset.len() {
-            let theta =
-                std::f64::consts::TAU * ((k * sector) % n_sectors) as f64 / n_sectors as f64;
-            let (sin, cos) = theta.sin_cos();
+            let (sin, cos) = sector_angle(k, sector, n_sectors).sin_cos();
             let (o, m) = (self.offset[k], self.size[k]);
             for c in 0..m {
                 let (re, im) = row(k, c);
@@ -319,8 +317,7 @@ impl WheelCoordinates {
     pub(crate) fn sector_value(&self, n_sectors: usize, sector: usize, i: usize, x: &[f64]) -> f64 {
         (0..self.offset.len())
             .map(|k| {
-                let theta =
-                    std::f64::consts::TAU * ((k * sector) % n_sectors) as f64 / n_sectors as f64;
+                let theta = sector_angle(k, sector, n_sectors);
                 let a = x[self.offset[k] + i];
                 if self.real[k] {
                     a * theta.cos()
@@ -330,6 +327,11 @@ impl WheelCoordinates {
             })
             .sum()
     }
+}
+
+/// `k θ_s` (rad) of harmonic `k` at sector `s`, reduced modulo a turn.
+fn sector_angle(k: usize, sector: usize, n_sectors: usize) -> f64 {
+    std::f64::consts::TAU * ((k * sector) % n_sectors) as f64 / n_sectors as f64
 }
 
 /// The mistuning stiffness in wheel coordinates ([`WheelCoordinates`]):
